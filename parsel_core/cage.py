@@ -1,0 +1,66 @@
+"""Cage coordinates: points held as trilinear weights over a hexahedron's 8 corners.
+
+A point ``p`` inside hexahedron ``H`` (8 x 3) is stored as weights ``M`` (8,) with
+``p = M @ H`` (paper section 5.2, ``M_a H_i``). The weights of cube point ``(u, v, w)``
+are the trilinear basis functions; for a box cage they coincide with the harmonic
+coordinates the paper uses, since trilinear functions are harmonic and interpolate
+the cage's bilinear faces. When ``H`` moves, ``M @ H(x)`` moves with it, so every
+constraint becomes an expression of the corners.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def cage_weights(uvw: np.ndarray) -> np.ndarray:
+    """Trilinear weights (n, 8) of cube points ``uvw`` (n, 3), in canonical corner order."""
+    uvw = np.asarray(uvw, dtype=float)
+    u, v, w = uvw[..., 0:1], uvw[..., 1:2], uvw[..., 2:3]
+    bits = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], dtype=float)
+    fu = np.where(bits[:, 0] == 1, u, 1.0 - u)
+    fv = np.where(bits[:, 1] == 1, v, 1.0 - v)
+    fw = np.where(bits[:, 2] == 1, w, 1.0 - w)
+    return fu * fv * fw
+
+
+def _jacobian(corners: np.ndarray, uvw: np.ndarray) -> np.ndarray:
+    """d point / d (u, v, w) at cube points ``uvw`` (n, 3); returns (n, 3, 3)."""
+    u, v, w = (uvw[:, i:i + 1] for i in range(3))
+    bits = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], dtype=float)
+    sign = 2.0 * bits - 1.0
+    fu = np.where(bits[:, 0] == 1, u, 1.0 - u)
+    fv = np.where(bits[:, 1] == 1, v, 1.0 - v)
+    fw = np.where(bits[:, 2] == 1, w, 1.0 - w)
+    du = sign[:, 0] * fv * fw
+    dv = sign[:, 1] * fu * fw
+    dw = sign[:, 2] * fu * fv
+    # columns: derivative along u, v, w
+    return np.stack([du @ corners, dv @ corners, dw @ corners], axis=2)
+
+
+def inverse_trilinear(corners: np.ndarray, points: np.ndarray, iterations: int = 30) -> np.ndarray:
+    """Cube coordinates (n, 3) of world points (n, 3) in the hexahedron ``corners``.
+
+    Exact for parallelepipeds (one Newton step from the affine start); Newton iterations
+    converge quadratically for the mildly non-affine cages that tapers produce. Points
+    outside the cage get coordinates outside [0, 1], which is what extrapolating a
+    deformation needs.
+    """
+    corners = np.asarray(corners, dtype=float)
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    origin = corners[0]
+    frame = np.stack([corners[4] - origin, corners[2] - origin, corners[1] - origin], axis=1)
+    uvw = np.linalg.solve(frame, (points - origin).T).T
+    for _ in range(iterations):
+        residual = cage_weights(uvw) @ corners - points
+        if np.abs(residual).max() < 1e-13:
+            break
+        step = np.linalg.solve(_jacobian(corners, uvw), residual[..., None])[..., 0]
+        uvw = uvw - step
+    return uvw
+
+
+def point_weights(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Cage coordinates (n, 8) of world points inside a hexahedron."""
+    return cage_weights(inverse_trilinear(corners, points))

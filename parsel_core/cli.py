@@ -1,0 +1,231 @@
+"""The ``parsel`` command line. Plugins add sub-commands through ``parsel_register_commands``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+import numpy as np
+
+from parsel_core import __version__
+from parsel_core.errors import ParselError
+
+
+def _add_backend(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--backend", metavar="NAME",
+                        help="CAS backend (default: $PARSEL_CAS_BACKEND, parsel.toml, else the fastest installed)")
+
+
+def cmd_plugins(args: argparse.Namespace) -> int:
+    """List installed plugins with versions, hooks and what they provide."""
+    from parsel_core import plugins
+
+    pm = plugins.get_plugin_manager()
+    records = pm.describe()
+    provides = {
+        "edit_operators": sorted(plugins.edit_operators()),
+        "cas_backends": plugins.cas_backend_names(),
+        "shape_loaders": [loader.name for loader in plugins.shape_loaders()],
+        "relation_detectors": sorted(plugins.relation_detectors()),
+        "llm_providers": sorted(plugins.llm_providers()),
+        "deformers": sorted(plugins.deformers()),
+        "exporters": sorted(plugins.exporters()),
+        "solvers": sorted(plugins.solvers()),
+        "example_shapes": sorted(plugins.example_shapes()),
+    }
+    per_plugin = {}
+    for record in records:
+        plugin = pm.get_plugin(record.name)
+        items: dict[str, list[str]] = {}
+        if plugin is not None:
+            for hook_name in record.hooks:
+                impl = getattr(plugin, hook_name, None)
+                if hook_name == "parsel_register_commands" or impl is None:
+                    continue
+                result = impl()
+                names = sorted(result) if isinstance(result, dict) else [getattr(i, "name", repr(i)) for i in result]
+                items[hook_name.removeprefix("parsel_")] = names
+        per_plugin[record.name] = items
+    if args.json:
+        data = {
+            "parsel": __version__,
+            "plugins": [
+                {"name": r.name, "module": r.module, "version": r.version, "builtin": r.builtin,
+                 "hooks": r.hooks, "provides": per_plugin[r.name], "error": r.error}
+                for r in records
+            ],
+            "provides": provides,
+        }
+        print(json.dumps(data, indent=2))
+        return 0
+    print(f"parsel {__version__}")
+    for r in records:
+        status = f"FAILED: {r.error}" if r.error else ", ".join(r.hooks)
+        print(f"  {r.name:<32} {r.version or '-':<10} {'(built-in) ' if r.builtin else ''}{status}")
+        for hook, names in per_plugin[r.name].items():
+            print(f"      {hook}: {', '.join(names)}")
+    return 0
+
+
+def _print_corners(evaluation, part_ids) -> None:
+    for pid in part_ids:
+        corners = np.asarray(evaluation.parts[pid])
+        print(f"    {pid}:")
+        for k, row in enumerate(corners):
+            print(f"      {k}: ({row[0]: .4f}, {row[1]: .4f}, {row[2]: .4f})")
+
+
+def relation_states(program, shape, backend_name: str | None = None, samples: int = 50) -> dict[str, str]:
+    """``kept`` or ``broken`` for each relation, checked at sampled parameter values."""
+    from parsel_core.plugins import get_cas_backend
+    from parsel_core.program import compile_program
+
+    compiled = compile_program(program, shape, get_cas_backend(backend_name))
+    values = {p.name: p.samples(samples, seed=i) for i, p in enumerate(program.parameters)}
+    corners = compiled(values).parts
+    tol = 1e-6 * shape.size
+    return {rid: "kept" if r.holds(corners, tol) else "broken" for rid, r in shape.relations.items()}
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    """The most complete path that exists: a built-in shape, a program on it, corners printed."""
+    from parsel_core.loading import load_shape
+    from parsel_core.plugins import get_cas_backend
+    from parsel_core.program import Program, compile_program
+
+    shape = load_shape(args.shape)
+    program = Program.from_text(DEMO_PROGRAM, source="demo")
+    backend = get_cas_backend(args.backend)
+    print(f"shape: {shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations")
+    print(f"CAS backend: {backend.name}")
+    print("program:")
+    print("  " + program.to_text().strip().replace("\n", "\n  "))
+    compiled = compile_program(program, shape, backend)
+    parameter = program.parameters[0]
+    for value in np.linspace(parameter.lo, parameter.hi, 3):
+        evaluation = compiled({parameter.name: value})
+        print(f"\n{parameter.name} = {value:g}")
+        _print_corners(evaluation, ["top", "leg_br", "rail_back"])
+        for group, instances in evaluation.instances.items():
+            centres = ", ".join(f"{c[0]:.3f}" for c in instances.mean(axis=1))
+            print(f"    {group}: {len(instances)} instances, centre x = {centres}")
+    states = relation_states(program, shape, args.backend)
+    kept = sum(state == "kept" for state in states.values())
+    print(f"\nrelations kept over [{parameter.lo:g}, {parameter.hi:g}]: {kept}/{len(states)}")
+    for rid, state in states.items():
+        if state != "kept":
+            print(f"  broken: {rid}")
+    return 0
+
+
+DEMO_PROGRAM = """\
+# Widen the table: the top stretches, the legs move out with it (mirrored), the
+# rails stretch to meet the legs, and the slats spread so they stay on the rails.
+param x in [0, 0.5] default 0.25
+scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)
+translate(leg_br, dir=(1, 0, 0), amount=0.45 * x)
+translate(leg_fr, dir=(1, 0, 0), amount=0.45 * x)
+translate(leg_bl, dir=(-1, 0, 0), amount=0.45 * x)
+translate(leg_fl, dir=(-1, 0, 0), amount=0.45 * x)
+scale_1d(rail_back, origin=(0, 0.22, -0.25), dir=(1, 0, 0), amount=18 * x / 17)
+scale_1d(rail_front, origin=(0, 0.22, 0.25), dir=(1, 0, 0), amount=18 * x / 17)
+translate(slat_0, dir=(-1, 0, 0), amount=0.3 * 18 * x / 17)
+translate(slat_1, dir=(-1, 0, 0), amount=0.1 * 18 * x / 17)
+translate(slat_2, dir=(1, 0, 0), amount=0.1 * 18 * x / 17)
+translate(slat_3, dir=(1, 0, 0), amount=0.3 * 18 * x / 17)
+"""
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """Evaluate a program on a shape at parameter values and print (or dump) the corners."""
+    from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_core.plugins import get_cas_backend
+    from parsel_core.program import compile_program
+
+    shape = load_shape(args.shape)
+    program = load_program(args.program)
+    values = parse_assignments(args.set)
+    backend = get_cas_backend(args.backend)
+    evaluation = compile_program(program, shape, backend)(values)
+    if args.json:
+        data = {
+            "values": program.values(values),
+            "parts": {pid: np.asarray(c).tolist() for pid, c in evaluation.parts.items() if pid in shape.parts},
+            "instances": {g: c.tolist() for g, c in evaluation.instances.items()},
+        }
+        print(json.dumps(data, indent=1))
+        return 0
+    print(", ".join(f"{k} = {v:g}" for k, v in program.values(values).items()))
+    _print_corners(evaluation, sorted(program.edited_parts & set(shape.parts)) or list(shape.parts))
+    return 0
+
+
+def cmd_convert(args: argparse.Namespace) -> int:
+    """Convert a program between its JSON and text forms (by the output suffix)."""
+    from pathlib import Path
+
+    from parsel_core.io import atomic_write_text
+    from parsel_core.loading import load_program
+
+    program = load_program(args.program)
+    out = Path(args.output)
+    text = program.to_json() if out.suffix.lower() == ".json" else program.to_text()
+    if args.output == "-":
+        sys.stdout.write(text)
+    else:
+        atomic_write_text(out, text)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.")
+    parser.add_argument("--version", action="version", version=f"parsel {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("plugins", help="list installed plugins, their versions and hooks")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_plugins)
+
+    p = sub.add_parser("demo", help="run a program on a built-in shape and print the corners")
+    p.add_argument("--shape", default="tiny_table", help="example name or shape file (default: tiny_table)")
+    _add_backend(p)
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("evaluate", help="evaluate a program on a shape at parameter values")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("program", help="program file (.json or text form)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter value (repeatable)")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    _add_backend(p)
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("convert", help="convert a program between JSON (.json) and text form")
+    p.add_argument("program")
+    p.add_argument("output", help="output path; .json for JSON, anything else for text, - for stdout")
+    p.set_defaults(func=cmd_convert)
+
+    from parsel_core.plugins import get_plugin_manager
+
+    get_plugin_manager().hook.parsel_register_commands(subparsers=sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 0
+        return int(args.func(args) or 0)
+    except ParselError as exc:
+        print(f"parsel: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except BrokenPipeError:
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,106 @@
+"""Instance layouts of symmetry groups under ChangeCount / ChangeDelta (reference section 3).
+
+A group's instances are copies of its first member (as edited). Where they go depends
+on the mode:
+
+* ``top_down``: the first and last instance anchors are held by cage coordinates in the
+  virtual parent, so editing the parent moves them. ChangeCount fills the span between
+  them with ``n`` evenly spaced instances; ChangeDelta keeps the span and sets the step,
+  and the count is however many instances fit (so scaling the parent changes the count).
+* ``bottom_up``: the first instance and the step are explicit. ChangeCount adds or
+  removes instances at the end; ChangeDelta scales the step and keeps the count; the
+  parent's box is derived from the instances.
+
+Rotation groups work the same way with the angle as step; a closed loop (count x angle
+= 2 pi) stays closed under ChangeCount.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from parsel_core.cage import point_weights
+from parsel_core.ops import ChangeCount, ChangeDelta, GroupOp
+from parsel_core.relations import Relation, RotationSymmetry, TranslationSymmetry, _rotation_matrix
+
+
+def _round_half_up(value: float) -> int:
+    return int(math.floor(value + 0.5))
+
+
+def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
+                       parent: np.ndarray, members: Sequence[np.ndarray],
+                       ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
+    """Instances (n, 8, 3) of a translation group after its group ops."""
+    k = len(rest_members)
+    first = members[0]
+    template = first - first.mean(axis=0)
+    rest_step = np.asarray(rest_members[1].mean(axis=0) - rest_members[0].mean(axis=0)) if k > 1 else np.zeros(3)
+    count = k
+    if ops[0][0].mode == "top_down":
+        anchors = np.array([rest_members[0].mean(axis=0), rest_members[-1].mean(axis=0)])
+        start, end = point_weights(rest_parent, anchors) @ parent
+        span = end - start
+        step = span / (k - 1) if k > 1 else np.zeros(3)
+        for op, amount in ops:
+            if isinstance(op, ChangeCount):
+                count = max(1, k + _round_half_up(amount))
+                step = span / (count - 1) if count > 1 else np.zeros(3)
+            elif isinstance(op, ChangeDelta):
+                length = float(np.linalg.norm(span))
+                direction = span / length if length > 0 else rest_step / max(np.linalg.norm(rest_step), 1e-300)
+                step = direction * np.linalg.norm(rest_step) * (1.0 + amount)
+                size = float(np.linalg.norm(step))
+                count = int(math.floor(length / size + 1e-9)) + 1 if size > 1e-12 else 1
+    else:
+        start = first.mean(axis=0)
+        step = members[1].mean(axis=0) - start if k > 1 else np.zeros(3)
+        for op, amount in ops:
+            if isinstance(op, ChangeCount):
+                count = max(1, k + _round_half_up(amount))
+            elif isinstance(op, ChangeDelta):
+                step = step * (1.0 + amount)
+    offsets = start + np.arange(count)[:, None] * step
+    return template[None] + offsets[:, None, :]
+
+
+def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent: np.ndarray,
+                    members: Sequence[np.ndarray], ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
+    """Instances (n, 8, 3) of a rotation group after its group ops."""
+    k = len(relation.members)
+    angle = relation.angle
+    closed = relation.closed
+    center = np.asarray(relation.center, dtype=float)
+    count = k
+    top_down = ops[0][0].mode == "top_down"
+    if top_down:
+        center = (point_weights(rest_parent, center[None]) @ parent)[0]
+    span = angle * (k - 1)
+    for op, amount in ops:
+        if isinstance(op, ChangeCount):
+            count = max(1, k + _round_half_up(amount))
+            if closed:
+                angle = math.copysign(2 * math.pi / count, relation.angle)
+            elif top_down and count > 1:
+                angle = span / (count - 1)
+        elif isinstance(op, ChangeDelta):
+            angle = relation.angle * (1.0 + amount)
+            if top_down and abs(angle) > 1e-12:
+                full = 2 * math.pi if closed else abs(span)
+                count = max(1, int(math.floor(full / abs(angle) + 1e-9)) + (0 if closed else 1))
+    template = members[0] - center
+    return np.stack([center + template @ _rotation_matrix(relation.axis, j * angle).T for j in range(count)])
+
+
+def group_instances(relation: Relation, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
+                    parent: np.ndarray, members: Sequence[np.ndarray],
+                    ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
+    """Dispatch on the group kind; ``ops`` are the group's ops with numeric amounts, in order."""
+    if isinstance(relation, TranslationSymmetry):
+        return translation_layout(relation, rest_parent, rest_members, parent, members, ops)
+    if isinstance(relation, RotationSymmetry):
+        return rotation_layout(relation, rest_parent, parent, members, ops)
+    raise TypeError(f"relation {relation.id!r} of kind {relation.kind!r} is not a group")

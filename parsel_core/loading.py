@@ -1,0 +1,55 @@
+"""Resolving what users type: example names or paths to shapes, files to programs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from parsel_core.errors import ParselError, ProgramFormatError
+from parsel_core.graph import ShapeGraph
+from parsel_core.program import Program
+
+
+def load_shape(spec: str) -> ShapeGraph:
+    """A bundled example by name (``tiny_table``, ``chair``) or a file any loader reads."""
+    from parsel_core.plugins import example_shapes, shape_loaders
+
+    examples = example_shapes()
+    if spec in examples and not Path(spec).exists():
+        source = examples[spec]
+        return source() if callable(source) else load_shape(str(source))
+    path = Path(spec)
+    if not path.exists():
+        names = ", ".join(sorted(examples)) or "none"
+        raise ParselError(f"{spec}: no such file, and not an example shape (examples: {names})")
+    for loader in shape_loaders():
+        if loader.can_load(path):
+            return loader.load(path)
+    raise ParselError(f"{spec}: no installed loader reads this kind of file (suffix {path.suffix!r})")
+
+
+def load_program(path: str | Path) -> Program:
+    """A program from its JSON form (``.json``) or its text form (anything else)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ProgramFormatError(f"{path}: cannot read program: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise ProgramFormatError(f"{path}: program is not UTF-8 text") from None
+    if path.suffix.lower() == ".json":
+        return Program.from_json(text, source=str(path))
+    return Program.from_text(text, source=str(path))
+
+
+def parse_assignments(items: list[str] | None) -> dict[str, float]:
+    """``["x=0.3", "y=1"]`` -> ``{"x": 0.3, "y": 1.0}``, with a clear error naming the item."""
+    values: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise ParselError(f"--set {item!r}: expected NAME=NUMBER") from None
+    return values

@@ -1,0 +1,375 @@
+"""Editing programs: ordered edit ops plus the control parameters their amounts use.
+
+A program is data. Evaluating it at parameter values gives every part's corners (and
+the instances of groups whose count or spacing it changes). Three evaluators share the
+ops' point maps: :func:`evaluate` (numpy, the reference), :func:`symbolic_corners` (CAS
+expressions, what edit propagation reasons about) and :class:`CompiledProgram` (the
+symbolic corners lambdified once, so a slider step is one vectorised call).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from parsel_core.cas import CASBackend
+from parsel_core.errors import ParameterRangeError, ParselError, ProgramFormatError, UnknownPartError
+from parsel_core.expressions import numpy_functions, parse_expression
+from parsel_core.graph import GROUP_KINDS, ShapeGraph
+from parsel_core.layout import group_instances
+from parsel_core.ops import EditOp, GroupOp, op_from_dict, op_to_dict
+
+PROGRAM_FORMAT = "parsel.program"
+PROGRAM_VERSION = 1
+_IDENTIFIER = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A control parameter (a slider): its name, its range [lo, hi] and its default."""
+
+    name: str
+    lo: float = 0.0
+    hi: float = 1.0
+    default: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _IDENTIFIER.match(self.name) or self.name in ("pi", "e"):
+            raise ProgramFormatError(f"parameter name {self.name!r} must be an identifier (not pi or e)")
+        for key in ("lo", "hi"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ProgramFormatError(f"parameter {self.name!r}: {key} must be a finite number, got {value!r}")
+            object.__setattr__(self, key, float(value))
+        if self.lo > self.hi:
+            raise ProgramFormatError(f"parameter {self.name!r}: range [{self.lo}, {self.hi}] is empty")
+        default = self.lo if self.default is None else self.default
+        if isinstance(default, bool) or not isinstance(default, (int, float)):
+            raise ProgramFormatError(f"parameter {self.name!r}: default must be a number, got {default!r}")
+        object.__setattr__(self, "default", float(default))
+        self.check(self.default)
+
+    def check(self, value: Any) -> None:
+        """Raise :class:`ParameterRangeError` if any value lies outside [lo, hi]."""
+        values = np.asarray(value, dtype=float)
+        if not np.all(np.isfinite(values)):
+            raise ParameterRangeError(f"parameter {self.name!r}: value {value!r} is not a finite number")
+        if np.any(values < self.lo - 1e-12) or np.any(values > self.hi + 1e-12):
+            bad = values[(values < self.lo - 1e-12) | (values > self.hi + 1e-12)].ravel()[0]
+            raise ParameterRangeError(f"parameter {self.name!r}: value {bad:g} is outside its range "
+                                      f"[{self.lo:g}, {self.hi:g}]")
+
+    def samples(self, count: int, seed: int = 0) -> np.ndarray:
+        """``count`` values: both ends of the range and uniform random ones between."""
+        rng = np.random.default_rng(seed)
+        inner = rng.uniform(self.lo, self.hi, size=max(count - 2, 0))
+        return np.concatenate([[self.lo, self.hi], inner])[:count]
+
+
+@dataclass(frozen=True)
+class Program:
+    """Ordered edit ops and the parameters their amounts use. Programs stack with ``then``."""
+
+    ops: tuple[EditOp, ...]
+    parameters: tuple[Parameter, ...] = (Parameter("x"),)
+    metadata: Mapping[str, Any] = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "ops", tuple(self.ops))
+        object.__setattr__(self, "parameters", tuple(self.parameters))
+        names = [p.name for p in self.parameters]
+        if len(set(names)) != len(names):
+            raise ProgramFormatError(f"program declares parameter(s) twice: {sorted(n for n in names if names.count(n) > 1)}")
+        for i, op in enumerate(self.ops):
+            unknown = sorted(op.parameters - set(names))
+            if unknown:
+                raise ProgramFormatError(f"op {i} ({op.name} on {op.operand!r}): amount {op.amount!r} uses "
+                                         f"undeclared parameter(s) {', '.join(unknown)}")
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise ParselError(f"program has no parameter {name!r} (has: {', '.join(self.parameter_names)})")
+
+    def values(self, values: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Every parameter's value: the given ones (range-checked), defaults for the rest."""
+        values = dict(values or {})
+        unknown = sorted(set(values) - set(self.parameter_names))
+        if unknown:
+            raise ParselError(f"program has no parameter(s) {', '.join(unknown)} "
+                              f"(has: {', '.join(self.parameter_names)})")
+        out = {}
+        for p in self.parameters:
+            value = values.get(p.name, p.default)
+            p.check(value)
+            out[p.name] = value
+        return out
+
+    def then(self, other: Program) -> Program:
+        """Stack programs: ``other`` edits the output of this one. Shared parameters must agree."""
+        params = {p.name: p for p in self.parameters}
+        for p in other.parameters:
+            if p.name in params and params[p.name] != p:
+                raise ProgramFormatError(f"cannot stack programs: parameter {p.name!r} differs "
+                                         f"({params[p.name]} vs {p})")
+            params.setdefault(p.name, p)
+        return Program(self.ops + other.ops, tuple(params.values()), {**self.metadata, **other.metadata})
+
+    def validate(self, shape: ShapeGraph) -> None:
+        """Check every operand against the shape; errors name the op and the part."""
+        for i, op in enumerate(self.ops):
+            where = f"op {i} ({op.name})"
+            if op.acts_on == "group":
+                if op.operand not in shape.relations:
+                    raise UnknownPartError(f"{where}: shape {shape.name!r} has no symmetry group {op.operand!r}")
+                if shape.relations[op.operand].kind not in GROUP_KINDS:
+                    raise ProgramFormatError(f"{where}: relation {op.operand!r} is a "
+                                             f"{shape.relations[op.operand].kind}, not a translation or rotation group")
+            else:
+                if op.operand not in shape.parts and op.operand not in shape.virtual_parents:
+                    raise UnknownPartError(f"{where}: shape {shape.name!r} has no part {op.operand!r}")
+                if op.operand in shape.virtual_parents and op.feature is not None:
+                    raise ProgramFormatError(f"{where}: feature ops on a group's virtual parent "
+                                             f"{op.operand!r} are not supported; edit its members")
+        modes: dict[str, str] = {}
+        for op in self.ops:
+            if isinstance(op, GroupOp) and modes.setdefault(op.operand, op.mode) != op.mode:
+                raise ProgramFormatError(f"group {op.operand!r} is edited in both top_down and bottom_up mode")
+
+    @property
+    def edited_parts(self) -> set[str]:
+        return {op.operand for op in self.ops if op.acts_on == "part" and op.name != "keep_fixed"}
+
+    # -- JSON form ---------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        data: dict[str, Any] = {
+            "format": PROGRAM_FORMAT,
+            "version": PROGRAM_VERSION,
+            "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default} for p in self.parameters],
+            "ops": [op_to_dict(op) for op in self.ops],
+        }
+        if self.metadata:
+            data["metadata"] = dict(self.metadata)
+        return data
+
+    def to_json(self) -> str:
+        """Deterministic JSON text (sorted metadata keys, shortest round-trip floats)."""
+        return json.dumps(self.to_dict(), indent=2, sort_keys=False) + "\n"
+
+    @classmethod
+    def from_dict(cls, data: Any, registry: Mapping[str, type[EditOp]] | None = None,
+                  source: str = "<program>") -> Program:
+        if registry is None:
+            from parsel_core.plugins import edit_operators
+
+            registry = edit_operators()
+        if not isinstance(data, Mapping):
+            raise ProgramFormatError(f"{source}: a program must be a JSON object")
+        if data.get("format") != PROGRAM_FORMAT:
+            raise ProgramFormatError(f"{source}: not a parsel program (expected \"format\": \"{PROGRAM_FORMAT}\")")
+        if data.get("version") != PROGRAM_VERSION:
+            raise ProgramFormatError(f"{source}: unsupported program version {data.get('version')!r} "
+                                     f"(this parsel reads {PROGRAM_VERSION})")
+        unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata"})
+        if unknown:
+            raise ProgramFormatError(f"{source}: unknown field(s) {', '.join(unknown)}")
+        params = []
+        for i, item in enumerate(data.get("parameters", [])):
+            if not isinstance(item, Mapping) or set(item) - {"name", "lo", "hi", "default"} or "name" not in item:
+                raise ProgramFormatError(f"{source}: parameters[{i}] must be an object with name, lo, hi, default")
+            try:
+                params.append(Parameter(**item))
+            except ProgramFormatError as exc:
+                raise ProgramFormatError(f"{source}: parameters[{i}]: {exc}") from None
+        ops_data = data.get("ops")
+        if not isinstance(ops_data, list):
+            raise ProgramFormatError(f"{source}: field 'ops' must be a list")
+        ops = [op_from_dict(item, registry, where=f"{source}: ops[{i}]") for i, item in enumerate(ops_data)]
+        metadata = data.get("metadata", {})
+        if not isinstance(metadata, Mapping):
+            raise ProgramFormatError(f"{source}: field 'metadata' must be an object")
+        try:
+            return cls(tuple(ops), tuple(params), dict(metadata))
+        except ProgramFormatError as exc:
+            raise ProgramFormatError(f"{source}: {exc}") from None
+
+    @classmethod
+    def from_json(cls, text: str, registry: Mapping[str, type[EditOp]] | None = None,
+                  source: str = "<program>") -> Program:
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ProgramFormatError(f"{source}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") \
+                from None
+        return cls.from_dict(data, registry, source)
+
+    def to_text(self) -> str:
+        from parsel_core.textform import program_to_text
+
+        return program_to_text(self)
+
+    @classmethod
+    def from_text(cls, text: str, registry: Mapping[str, type[EditOp]] | None = None,
+                  source: str = "<program>") -> Program:
+        from parsel_core.textform import program_from_text
+
+        return program_from_text(text, registry, source)
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Corners after a program: ``parts`` (..., 8, 3) for every part and virtual parent,
+    ``instances`` (n, 8, 3) for each group whose layout a group op changed."""
+
+    parts: dict[str, np.ndarray]
+    instances: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos)
+
+
+def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
+                    math_ns: Any) -> dict[str, Any]:
+    """Run the part ops in order. An op on a virtual parent moves the parent and, with the
+    same point map, every member (affine ops map contained boxes exactly)."""
+    for op, amount in zip(program.ops, amounts):
+        if op.acts_on != "part":
+            continue
+        targets = [op.operand]
+        if op.operand in shape.virtual_parents:
+            targets += list(shape.relations[op.operand].members)
+        for target in targets:
+            corners[target] = op.apply(corners[target], amount, math_ns)
+    return corners
+
+
+def _group_layouts(program: Program, shape: ShapeGraph, corners: Mapping[str, np.ndarray],
+                   amounts: Sequence[float]) -> dict[str, np.ndarray]:
+    per_group: dict[str, list[tuple[GroupOp, float]]] = {}
+    for op, amount in zip(program.ops, amounts):
+        if isinstance(op, GroupOp):
+            per_group.setdefault(op.operand, []).append((op, float(amount)))
+    instances = {}
+    for group_id, ops in per_group.items():
+        relation = shape.relations[group_id]
+        rest = shape.rest_corners()
+        instances[group_id] = group_instances(
+            relation, rest[group_id], [rest[m] for m in relation.members],
+            corners[group_id], [corners[m] for m in relation.members], ops)
+    return instances
+
+
+def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | None = None) -> Evaluation:
+    """Reference numeric evaluation with numpy.
+
+    Parameter values may be scalars or equal-shaped arrays (a batch of slider positions);
+    corners then get the batch shape in front. Group instances are laid out for scalar
+    values only (their count can differ between samples).
+    """
+    program.validate(shape)
+    values = program.values(values)
+    functions = numpy_functions()
+    batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
+    arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
+    amounts = []
+    for op in program.ops:
+        amount = np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, functions), dtype=float), batch)
+        amounts.append(amount[..., None, None] if batch else float(amount))
+    corners = {pid: np.broadcast_to(c, batch + (8, 3)).copy() for pid, c in shape.rest_corners().items()}
+    corners = _apply_part_ops(program, shape, corners, amounts, NUMPY_MATH)
+    instances = _group_layouts(program, shape, corners, amounts) if not batch else {}
+    return Evaluation(corners, instances)
+
+
+def symbolic_amounts(program: Program, backend: CASBackend) -> list[Any]:
+    """Each op's amount as a backend expression."""
+    return [backend.parse(op.amount) for op in program.ops]
+
+
+def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
+                     only: Iterable[str] | None = None) -> dict[str, np.ndarray]:
+    """Corners as (8, 3) object arrays of expressions in the control parameters.
+
+    Parts no op touches keep their float corners. ``only`` limits the work to the
+    parts a caller needs (relations of a few parts, say).
+    """
+    program.validate(shape)
+    math_ns = SimpleNamespace(**{k: v for k, v in backend.functions().items() if k in ("sin", "cos")})
+    rest = shape.rest_corners()
+    wanted = set(rest) if only is None else set(only)
+    touched = set()
+    for op in program.ops:
+        if op.acts_on == "part":
+            touched.add(op.operand)
+            if op.operand in shape.virtual_parents:
+                touched.update(shape.relations[op.operand].members)
+    # Touched parts start as CAS numbers so every corner entry is an expression.
+    corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]
+                               for pid in rest if pid in wanted or pid in touched}
+    _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), math_ns)
+    return {pid: c for pid, c in corners.items() if pid in wanted}
+
+
+class CompiledProgram:
+    """A program lambdified once for one shape; calling it is a slider step.
+
+    The symbolic corners of the edited parts are compiled into a single numpy function
+    of the parameters; untouched parts are constants. Group layouts are computed from
+    the compiled corners and the compiled group amounts.
+    """
+
+    def __init__(self, program: Program, shape: ShapeGraph, backend: CASBackend) -> None:
+        self.program = program
+        self.shape = shape
+        self.backend = backend
+        self.rest = shape.rest_corners()
+        symbolic = symbolic_corners(program, shape, backend)
+        self.edited = [pid for pid, c in symbolic.items() if np.asarray(c).dtype == object]
+        exprs = [e for pid in self.edited for e in symbolic[pid].ravel()]
+        group_amounts = [backend.parse(op.amount) for op in program.ops if isinstance(op, GroupOp)]
+        self._group_ops = [op for op in program.ops if isinstance(op, GroupOp)]
+        self._function = backend.compile(program.parameter_names, exprs + group_amounts) if exprs or group_amounts \
+            else None
+        self._n_corner_values = len(exprs)
+
+    def __call__(self, values: Mapping[str, Any] | None = None) -> Evaluation:
+        values = self.program.values(values)
+        batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
+        corners = {pid: np.broadcast_to(c, batch + (8, 3)) for pid, c in self.rest.items()}
+        instances: dict[str, np.ndarray] = {}
+        if self._function is not None:
+            args = [np.broadcast_to(np.asarray(values[n], dtype=float), batch) for n in self.program.parameter_names]
+            out = np.asarray(self._function(*args), dtype=float)
+            out = np.broadcast_to(out, (out.shape[0],) + batch)
+            flat = np.moveaxis(out[: self._n_corner_values], 0, -1)
+            for i, pid in enumerate(self.edited):
+                corners[pid] = flat[..., i * 24:(i + 1) * 24].reshape(batch + (8, 3))
+            if self._group_ops and not batch:
+                amounts = [None] * len(self.program.ops)
+                group_values = out[self._n_corner_values:]
+                j = 0
+                for i, op in enumerate(self.program.ops):
+                    if isinstance(op, GroupOp):
+                        amounts[i] = float(group_values[j])
+                        j += 1
+                instances = _group_layouts(self.program, self.shape, corners, amounts)
+        return Evaluation(dict(corners), instances)
+
+
+def compile_program(program: Program, shape: ShapeGraph, backend: CASBackend) -> CompiledProgram:
+    """Validate and lambdify ``program`` for ``shape`` with ``backend``."""
+    program.validate(shape)
+    return CompiledProgram(program, shape, backend)

@@ -1,0 +1,167 @@
+"""The readable text form of programs: one op per line, parsed back with :mod:`ast`.
+
+Example::
+
+    # parsel program
+    param x in [0, 0.5] default 0.25
+    scale_1d(seat, origin=(0, 0.45, 0), dir=(1, 0, 0), amount=x)
+    translate(face(seat, "v+"), dir=(0, 1, 0), amount=0.5 * x)
+    change_count("translation_0", amount=2 * x, mode="top_down")
+
+An operand is a part id (a bare name when it is an identifier, a string otherwise), or
+``face(part, "u+")`` / ``edge(part, "u+v-")`` / ``corner(part, "u+v+w-")`` for a
+feature. Keyword values are tuples of numbers, strings, or (for ``amount``) an
+expression. Lines are parsed into trees and checked against the registered ops;
+nothing is executed.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import re
+from collections.abc import Mapping
+from typing import Any
+
+from parsel_core.errors import ProgramFormatError
+from parsel_core.expressions import parse_expression
+from parsel_core.ops import EditOp, op_from_dict, op_to_dict
+
+_PARAM = re.compile(
+    r"^param\s+(?P<name>[A-Za-z][A-Za-z0-9_]*)\s+in\s+\[\s*(?P<lo>[^,\]]+)\s*,\s*(?P<hi>[^\]]+)\]"
+    r"(?:\s+default\s+(?P<default>\S+))?\s*$")
+_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_FEATURE_CALLS = ("face", "edge", "corner")
+
+
+def _format_value(value: Any) -> str:
+    if isinstance(value, tuple):
+        return "(" + ", ".join(repr(float(v)) for v in value) + ")"
+    return repr(value)
+
+
+def op_to_text(op: EditOp) -> str:
+    """One line: ``name(operand, key=value, ..., amount=expr)``."""
+    data = op_to_dict(op)
+    operand = op.operand if _IDENTIFIER.match(op.operand) and op.operand not in _FEATURE_CALLS else repr(op.operand)
+    if op.feature is not None:
+        operand = f"{('face', 'edge', 'corner')[len(op.feature) // 2 - 1]}({operand}, {op.feature!r})"
+    args = [operand]
+    for key, value in op.params().items():
+        args.append(f"{key}={_format_value(value)}")
+    args.append(f"amount={data['amount']}")
+    return f"{op.name}({', '.join(args)})"
+
+
+def program_to_text(program) -> str:
+    lines = ["# parsel program"]
+    for p in program.parameters:
+        lines.append(f"param {p.name} in [{p.lo!r}, {p.hi!r}] default {p.default!r}")
+    lines.extend(op_to_text(op) for op in program.ops)
+    return "\n".join(lines) + "\n"
+
+
+def _literal(node: ast.AST, where: str) -> Any:
+    """Numbers, strings and tuples/lists of numbers (with unary minus)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, (int, float, str)) and not isinstance(
+            node.value, bool):
+        return node.value
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        value = _literal(node.operand, where)
+        if isinstance(value, (int, float)):
+            return -value if isinstance(node.op, ast.USub) else value
+    if isinstance(node, (ast.Tuple, ast.List)):
+        return tuple(_literal(elt, where) for elt in node.elts)
+    raise ProgramFormatError(f"{where}: expected a number, string or tuple, got {ast.unparse(node)!r}")
+
+
+def _operand(node: ast.AST, where: str) -> tuple[str, str | None]:
+    if isinstance(node, ast.Name):
+        return node.id, None
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return node.value, None
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FEATURE_CALLS:
+        if len(node.args) != 2 or node.keywords:
+            raise ProgramFormatError(f"{where}: {node.func.id}() takes a part and a feature name")
+        part, _ = _operand(node.args[0], where)
+        feature = node.args[1]
+        if not (isinstance(feature, ast.Constant) and isinstance(feature.value, str)):
+            raise ProgramFormatError(f"{where}: feature name must be a string like 'u+'")
+        expected = {"face": 2, "edge": 4, "corner": 6}[node.func.id]
+        if len(feature.value) != expected:
+            raise ProgramFormatError(f"{where}: {feature.value!r} is not a {node.func.id} name")
+        return part, feature.value
+    raise ProgramFormatError(f"{where}: operand must be a part name, a string or face/edge/corner(...), "
+                             f"got {ast.unparse(node)!r}")
+
+
+def op_from_text(line: str, registry: Mapping[str, type[EditOp]], where: str = "<op>") -> EditOp:
+    """Parse one op line against the registered ops."""
+    try:
+        tree = ast.parse(line.strip(), mode="eval").body
+    except SyntaxError as exc:
+        raise ProgramFormatError(f"{where}: does not parse: {exc.msg}") from None
+    if not isinstance(tree, ast.Call) or not isinstance(tree.func, ast.Name):
+        raise ProgramFormatError(f"{where}: expected an op call like scale_1d(part, ...)")
+    name = tree.func.id
+    if name not in registry:
+        raise ProgramFormatError(f"{where}: unknown op {name!r} (known: {', '.join(sorted(registry))})")
+    if len(tree.args) != 1:
+        raise ProgramFormatError(f"{where}: {name}() takes exactly one operand, then keyword arguments")
+    operand, feature = _operand(tree.args[0], where)
+    data: dict[str, Any] = {"op": name, "operand": operand}
+    if feature is not None:
+        data["feature"] = feature
+    for keyword in tree.keywords:
+        if keyword.arg is None:
+            raise ProgramFormatError(f"{where}: ** arguments are not allowed")
+        if keyword.arg in data:
+            raise ProgramFormatError(f"{where}: argument {keyword.arg!r} given twice")
+        if keyword.arg == "amount":
+            node = keyword.value
+            text = node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else ast.unparse(node)
+            parse_expression(text)
+            data["amount"] = text
+        else:
+            data[keyword.arg] = _literal(keyword.value, f"{where}: {keyword.arg}")
+    return op_from_dict(data, registry, where)
+
+
+def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = None, source: str = "<program>"):
+    """Parse the text form; errors name the source and line number."""
+    from parsel_core.program import Parameter, Program
+
+    if registry is None:
+        from parsel_core.plugins import edit_operators
+
+        registry = edit_operators()
+    params, ops = [], []
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        where = f"{source}:{number}"
+        if line.split()[0] == "param":
+            line = line.split("#", 1)[0].strip()  # op lines keep theirs: ast skips comments
+            match = _PARAM.match(line)
+            if not match:
+                raise ProgramFormatError(f"{where}: expected 'param NAME in [LO, HI] default VALUE'")
+            try:
+                lo, hi = float(match["lo"]), float(match["hi"])
+                default = float(match["default"]) if match["default"] is not None else None
+            except ValueError:
+                raise ProgramFormatError(f"{where}: range and default must be numbers") from None
+            if not all(math.isfinite(v) for v in (lo, hi) + ((default,) if default is not None else ())):
+                raise ProgramFormatError(f"{where}: range and default must be finite")
+            try:
+                params.append(Parameter(match["name"], lo, hi, default))
+            except ProgramFormatError as exc:
+                raise ProgramFormatError(f"{where}: {exc}") from None
+            continue
+        ops.append(op_from_text(line, registry, where))
+    if not params:
+        params = [Parameter("x")]
+    try:
+        return Program(tuple(ops), tuple(params))
+    except ProgramFormatError as exc:
+        raise ProgramFormatError(f"{source}: {exc}") from None

@@ -1,0 +1,52 @@
+"""An example plugin: ``twist``, an analytic edit operator that is not in the paper's DSL.
+
+A twist rotates each point about an axis by an angle proportional to the point's
+height along that axis: ``p -> o + R(amount * ((p - o) . n)) (p - o)``. Applied to a
+whole part it turns a straight leg into a twisted one; like every operator it works
+unchanged on floats and on CAS expressions, because it only uses arithmetic and
+``math.sin`` / ``math.cos``. docs/plugins.md walks through this file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from parsel_core import hookimpl
+from parsel_core.ops import EditOp, Vector
+
+
+@dataclass(frozen=True)
+class Twist(EditOp):
+    """Rotate points about axis (origin, axis) by ``amount`` radians per unit of height."""
+
+    name: ClassVar[str] = "twist"
+    unit_fields: ClassVar[tuple[str, ...]] = ("axis",)
+    point_fields: ClassVar[tuple[str, ...]] = ("origin",)
+    origin: Vector = (0.0, 0.0, 0.0)
+    axis: Vector = (0.0, 1.0, 0.0)
+
+    def transform(self, points, amount, math):
+        o, n = np.asarray(self.origin), np.asarray(self.axis)
+        centred = points - o
+        height = centred[..., 0:1] * n[0] + centred[..., 1:2] * n[1] + centred[..., 2:3] * n[2]
+        angle = height * amount  # one angle per point: (..., m, 1)
+        cos, sin = _elementwise(math.cos, angle), _elementwise(math.sin, angle)
+        x, y, z = centred[..., 0:1], centred[..., 1:2], centred[..., 2:3]
+        cross = np.concatenate([n[1] * z - n[2] * y, n[2] * x - n[0] * z, n[0] * y - n[1] * x], axis=-1)
+        # Rodrigues' rotation of each point by its own angle.
+        return o + centred * cos + cross * sin + height * n * (1 - cos)
+
+
+def _elementwise(function, values):
+    """Apply sin/cos to an array of CAS expressions entry by entry (numpy ufuncs need no help)."""
+    if isinstance(values, np.ndarray) and values.dtype == object:
+        return np.frompyfunc(function, 1, 1)(values)
+    return function(values)
+
+
+@hookimpl
+def parsel_edit_operators():
+    return [Twist]

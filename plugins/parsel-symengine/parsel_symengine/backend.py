@@ -1,0 +1,87 @@
+"""symengine behind :class:`parsel_core.cas.CASBackend`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+import symengine
+
+from parsel_core.cas import CASBackend
+
+
+class SymengineBackend(CASBackend):
+    """Fast expression building and compilation; affine constraints solved directly,
+    other ones with ``symengine.solve`` (polynomials) where it can."""
+
+    name = "symengine"
+
+    def __init__(self) -> None:
+        self._symbols: dict[str, symengine.Symbol] = {}
+        self._functions = {
+            "sin": symengine.sin, "cos": symengine.cos, "tan": symengine.tan, "asin": symengine.asin,
+            "acos": symengine.acos, "atan": symengine.atan, "atan2": symengine.atan2, "sqrt": symengine.sqrt,
+            "exp": symengine.exp, "log": symengine.log, "abs": symengine.Abs, "floor": symengine.floor,
+            "ceiling": symengine.ceiling, "min": symengine.Min, "max": symengine.Max,
+            "pi": symengine.pi, "e": symengine.E,
+        }
+
+    def symbol(self, name: str):
+        if name not in self._symbols:
+            self._symbols[name] = symengine.Symbol(name)
+        return self._symbols[name]
+
+    def number(self, value: float):
+        if isinstance(value, int) or float(value).is_integer() and abs(value) < 2**53:
+            return symengine.Integer(int(value))
+        return symengine.RealDouble(float(value))
+
+    def functions(self) -> Mapping[str, Callable]:
+        return self._functions
+
+    def simplify(self, expr):
+        return symengine.expand(expr)
+
+    def expand(self, expr):
+        return symengine.expand(expr)
+
+    def subs(self, expr, values):
+        return symengine.sympify(expr).xreplace(
+            {self.symbol(k): symengine.sympify(v) for k, v in values.items()})
+
+    def diff(self, expr, name):
+        return symengine.diff(expr, self.symbol(name))
+
+    def free_symbols(self, expr) -> set[str]:
+        return {str(s) for s in symengine.sympify(expr).free_symbols}
+
+    def solve(self, expr, unknown):
+        affine = self.solve_affine(expr, unknown)
+        if affine is not None:
+            return [affine]
+        try:
+            solutions = symengine.solve(expr, self.symbol(unknown))
+        except (RuntimeError, NotImplementedError, TypeError):
+            return []
+        return list(getattr(solutions, "args", [])) if not isinstance(solutions, (list, tuple)) else list(solutions)
+
+    def compile(self, params: Sequence[str], exprs: Sequence[object]):
+        args = [self.symbol(p) for p in params]
+        function = symengine.Lambdify(args, list(exprs), cse=True) if args else None
+        constants = None if args else np.array([float(e) for e in exprs])
+
+        def call(*values):
+            if function is None:
+                return constants
+            shape = np.broadcast_shapes(*(np.shape(v) for v in values))
+            stacked = np.stack([np.broadcast_to(np.asarray(v, dtype=float), shape) for v in values], axis=-1)
+            out = np.asarray(function(stacked.reshape(-1, len(args))))  # (samples, n_exprs)
+            return np.moveaxis(out.reshape(shape + (len(exprs),)), -1, 0)
+
+        return call
+
+    def to_string(self, expr) -> str:
+        return str(expr)
+
+    def to_float(self, expr) -> float:
+        return float(symengine.sympify(expr).evalf())

@@ -1,0 +1,87 @@
+"""Hexahedra: corner order, feature points, axes and intrinsic symmetry planes."""
+
+import numpy as np
+import pytest
+
+from parsel_core.cage import cage_weights, inverse_trilinear, point_weights
+from parsel_core.hexahedron import (
+    CORNER_NAMES,
+    EDGE_NAMES,
+    FACE_NAMES,
+    FEATURE_POINT_NAMES,
+    Hexahedron,
+    canonical_feature_name,
+    feature_corners,
+)
+
+
+def test_canonical_corner_order_is_bits_of_u_v_w():
+    h = Hexahedron.from_bounds((0, 0, 0), (2, 3, 4))
+    expected = [(0, 0, 0), (0, 0, 4), (0, 3, 0), (0, 3, 4), (2, 0, 0), (2, 0, 4), (2, 3, 0), (2, 3, 4)]
+    assert h.corners.tolist() == [list(map(float, c)) for c in expected]
+
+
+def test_27_feature_points_of_a_box():
+    h = Hexahedron.from_bounds((0, 0, 0), (2, 2, 2))
+    assert len(FEATURE_POINT_NAMES) == 27 and len(FACE_NAMES) == 6 and len(EDGE_NAMES) == 12
+    assert np.allclose(h.feature_point("center"), (1, 1, 1))
+    assert np.allclose(h.feature_point("v+"), (1, 2, 1))
+    assert np.allclose(h.feature_point("u-w+"), (0, 1, 2))
+    assert np.allclose(h.feature_point("u+v-w+"), (2, 0, 2))
+    assert len({tuple(p) for p in h.feature_points.round(9)}) == 27
+
+
+def test_feature_names_and_corners():
+    assert feature_corners("u+") == (4, 5, 6, 7)
+    assert feature_corners("v-") == (0, 1, 4, 5)
+    assert feature_corners("u+v-") == (4, 5)
+    assert feature_corners("w+v+") == (3, 7)
+    assert canonical_feature_name("w+v+") == "v+w+"
+    assert [feature_corners(n) for n in CORNER_NAMES] == [(k,) for k in range(8)]
+    with pytest.raises(ValueError):
+        feature_corners("x+")
+    with pytest.raises(ValueError):
+        feature_corners("u+u-")
+
+
+def test_axes_extents_volume_and_rotated_box():
+    rotation = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    h = Hexahedron.from_box((1, 2, 3), (2, 4, 6), axes=rotation)
+    assert np.allclose(h.extents, (2, 4, 6))
+    assert np.allclose(h.local_axes, rotation)
+    assert np.isclose(h.volume, 48)
+    assert np.allclose(h.center, (1, 2, 3))
+    assert np.allclose(h.face_normal("u-"), -rotation[0])
+
+
+def test_intrinsic_symmetry_planes_drop_with_tapers():
+    h = Hexahedron.from_bounds((0, 0, 0), (1, 2, 3))
+    assert len(h.intrinsic_symmetry_planes()) == 3
+    one_sided = h.corners.copy()
+    one_sided[[6, 7]] += (0.3, 0, 0)  # the top u+ edge slides out: only the w plane survives
+    assert len(Hexahedron(one_sided).intrinsic_symmetry_planes()) == 1
+    symmetric = h.corners.copy()
+    symmetric[[6, 7]] += (0.3, 0, 0)
+    symmetric[[2, 3]] -= (0.3, 0, 0)  # a symmetric taper keeps the u and w planes
+    assert len(Hexahedron(symmetric).intrinsic_symmetry_planes()) == 2
+
+
+def test_invalid_corners_are_rejected():
+    with pytest.raises(ValueError):
+        Hexahedron(np.zeros((7, 3)))
+    with pytest.raises(ValueError):
+        Hexahedron(np.full((8, 3), np.nan))
+
+
+def test_cage_coordinates_reproduce_points_in_boxes_and_tapers():
+    rng = np.random.default_rng(0)
+    h = Hexahedron.from_box((0.3, -1, 2), (1, 2, 0.5), axes=np.linalg.qr(rng.normal(size=(3, 3)))[0].T)
+    points = h.point_at(rng.uniform(0, 1, size=(40, 3)))
+    weights = point_weights(h.corners, points)
+    assert np.allclose(weights.sum(axis=1), 1)
+    assert np.allclose(weights @ h.corners, points, atol=1e-12)
+    tapered = h.corners.copy()
+    tapered[[2, 3, 6, 7]] = h.center + 0.6 * (tapered[[2, 3, 6, 7]] - h.center)
+    uvw = rng.uniform(0, 1, size=(40, 3))
+    points = cage_weights(uvw) @ tapered
+    assert np.allclose(inverse_trilinear(tapered, points), uvw, atol=1e-10)

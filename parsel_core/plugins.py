@@ -15,7 +15,7 @@ import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import metadata
 from typing import Any
 
@@ -159,7 +159,7 @@ def edit_operators() -> dict[str, type]:
     return ops
 
 
-@lru_cache(maxsize=None)
+@cache
 def _backend_instance(cls: type) -> Any:
     from parsel_core.cas import check_backend
 

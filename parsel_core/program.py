@@ -86,7 +86,8 @@ class Program:
         object.__setattr__(self, "parameters", tuple(self.parameters))
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
-            raise ProgramFormatError(f"program declares parameter(s) twice: {sorted(n for n in names if names.count(n) > 1)}")
+            twice = sorted({n for n in names if names.count(n) > 1})
+            raise ProgramFormatError(f"program declares parameter(s) twice: {', '.join(twice)}")
         for i, op in enumerate(self.ops):
             unknown = sorted(op.parameters - set(names))
             if unknown:

@@ -120,7 +120,10 @@ def op_from_text(line: str, registry: Mapping[str, type[EditOp]], where: str = "
         if keyword.arg == "amount":
             node = keyword.value
             text = node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else ast.unparse(node)
-            parse_expression(text)
+            try:
+                parse_expression(text)
+            except ProgramFormatError as exc:
+                raise ProgramFormatError(f"{where}: {exc}") from None
             data["amount"] = text
         else:
             data[keyword.arg] = _literal(keyword.value, f"{where}: {keyword.arg}")
@@ -158,9 +161,16 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
             except ProgramFormatError as exc:
                 raise ProgramFormatError(f"{where}: {exc}") from None
             continue
-        ops.append(op_from_text(line, registry, where))
+        ops.append((where, op_from_text(line, registry, where)))
     if not params:
         params = [Parameter("x")]
+    declared = {p.name for p in params}
+    for where, op in ops:
+        unknown = sorted(op.parameters - declared)
+        if unknown:
+            raise ProgramFormatError(f"{where}: amount {op.amount!r} uses undeclared parameter(s) "
+                                     f"{', '.join(unknown)} (declare with 'param NAME in [LO, HI]')")
+    ops = [op for _, op in ops]
     try:
         return Program(tuple(ops), tuple(params))
     except ProgramFormatError as exc:

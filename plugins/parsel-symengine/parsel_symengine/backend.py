@@ -6,6 +6,7 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import symengine
+from symengine.lib.symengine_wrapper import solve as _solve
 
 from parsel_core.cas import CASBackend
 
@@ -60,10 +61,11 @@ class SymengineBackend(CASBackend):
         if affine is not None:
             return [affine]
         try:
-            solutions = symengine.solve(expr, self.symbol(unknown))
+            solutions = _solve(expr, self.symbol(unknown))
         except (RuntimeError, NotImplementedError, TypeError):
-            return []
-        return list(getattr(solutions, "args", [])) if not isinstance(solutions, (list, tuple)) else list(solutions)
+            return []  # e.g. trigonometric equations: symengine has no solver for them
+        # A FiniteSet of roots; other set kinds (intervals, condition sets) are not closed forms.
+        return list(solutions.args) if type(solutions).__name__ == "FiniteSet" else []
 
     def compile(self, params: Sequence[str], exprs: Sequence[object]):
         args = [self.symbol(p) for p in params]

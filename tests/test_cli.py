@@ -1,0 +1,84 @@
+"""The command line: the demo, evaluate, convert, and one-line errors with exit status 2."""
+
+import json
+
+import numpy as np
+import pytest
+
+from parsel_core.cli import main
+from parsel_core.examples import tiny_table
+
+PROGRAM = "param x in [0, 0.5] default 0.2\nscale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)\n"
+
+
+@pytest.fixture
+def files(tmp_path):
+    program = tmp_path / "widen.parsel"
+    program.write_text(PROGRAM)
+    shape = tmp_path / "table.shape.json"
+    shape.write_text(json.dumps(tiny_table().to_dict()))
+    return tmp_path, program, shape
+
+
+def test_demo_prints_corners_and_keeps_every_relation(capsys):
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "x = 0.5" in out and "leg_br:" in out
+    assert "relations kept over [0, 0.5]: 26/26" in out
+    assert "(-0.7500,  0.7000, -0.3000)" in out  # the top's corner 0 at x = 0.5: -0.5 * 1.5
+
+
+@pytest.mark.parametrize("backend", ["sympy", "symengine"])
+def test_evaluate_json_on_a_shape_file(files, capsys, backend):
+    _, program, shape = files
+    assert main(["evaluate", str(shape), str(program), "--set", "x=0.4", "--json", "--backend", backend]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["values"] == {"x": 0.4}
+    assert np.allclose(np.array(data["parts"]["top"])[:, 0], [-0.7] * 4 + [0.7] * 4)
+
+
+def test_convert_text_to_json_and_back(files, capsys):
+    tmp, program, _ = files
+    assert main(["convert", str(program), str(tmp / "p.json")]) == 0
+    assert main(["convert", str(tmp / "p.json"), str(tmp / "p.parsel")]) == 0
+    from parsel_core.program import Program
+
+    assert (tmp / "p.parsel").read_text() == Program.from_text(PROGRAM).to_text()
+    assert Program.from_json((tmp / "p.json").read_text()) == Program.from_text(PROGRAM)
+
+
+def one_line_error(capsys, argv, *fragments):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("parsel: error: "), err
+    for fragment in fragments:
+        assert fragment in err, err
+
+
+def test_bad_input_gives_one_line_and_exit_2(files, capsys):
+    tmp, program, shape = files
+    unknown_part = tmp / "unknown.parsel"
+    unknown_part.write_text("translate(seat, dir=(1, 0, 0), amount=x)\n")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(unknown_part)], "no part 'seat'", "op 0")
+    malformed = tmp / "bad.json"
+    malformed.write_text('{"format": "parsel.program", "version": 1, "ops": [{"op": "translate"}]}')
+    one_line_error(capsys, ["evaluate", "tiny_table", str(malformed)], "bad.json", "ops[0]", "operand")
+    broken_text = tmp / "bad.parsel"
+    broken_text.write_text("param x in [0, 1]\nscale_1d(top, dir=(1, 0, 0), amount=x\n")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(broken_text)], "bad.parsel:2")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(program), "--set", "x=0.9"],
+                   "parameter 'x'", "outside its range [0, 0.5]")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(program), "--backend", "maple"],
+                   "unknown CAS backend 'maple'")
+    one_line_error(capsys, ["evaluate", "no_such_shape", str(program)], "no_such_shape")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(tmp / "missing.parsel")], "missing.parsel")
+    one_line_error(capsys, ["evaluate", "tiny_table", str(program), "--set", "x"], "--set 'x'")
+    bad_shape = tmp / "bad.shape.json"
+    bad_shape.write_text('{"format": "parsel.shape", "version": 1, "parts": [{"id": "a", "corners": [[0, 0]]}]}')
+    one_line_error(capsys, ["evaluate", str(bad_shape), str(program)], "bad.shape.json", "parts[0]")
+
+
+def test_convert_to_unwritable_place_leaves_nothing(files, capsys):
+    tmp, program, _ = files
+    one_line_error(capsys, ["convert", str(program), str(tmp / "nope" / "p.json")], "does not exist")
+    assert not (tmp / "nope").exists()

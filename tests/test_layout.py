@@ -1,0 +1,90 @@
+"""ChangeCount and ChangeDelta: expected instance positions in both modes."""
+
+import math
+
+import numpy as np
+import pytest
+
+from parsel_core import Hexahedron, Part, Program, ShapeGraph, compile_program, evaluate
+from parsel_core.relations import RotationSymmetry, _rotation_matrix
+
+
+def centres_x(evaluation, group="slat_row"):
+    return evaluation.instances[group].mean(axis=1)[:, 0]
+
+
+CASES = {
+    # the slat row: centres -0.3, -0.1, 0.1, 0.3 (step 0.2), slats 0.06 wide
+    "bottom_up count +2 appends at the same step": (
+        'change_count(slat_row, amount=2, mode="bottom_up")', 0.0, [-0.3 + 0.2 * j for j in range(6)]),
+    "top_down count +2 fills the parent's span": (
+        'change_count(slat_row, amount=2, mode="top_down")', 0.0, [-0.3 + 0.12 * j for j in range(6)]),
+    "count follows the amount, rounded": (
+        'change_count(slat_row, amount=4 * x, mode="bottom_up")', 0.3, [-0.3 + 0.2 * j for j in range(5)]),
+    "count never drops below one": (
+        'change_count(slat_row, amount=-9, mode="top_down")', 0.0, [-0.3]),
+    "bottom_up delta scales the step, keeps the count": (
+        'change_delta(slat_row, amount=x, mode="bottom_up")', 0.5, [-0.3 + 0.3 * j for j in range(4)]),
+    "top_down delta keeps the span, count is what fits": (
+        'change_delta(slat_row, amount=x, mode="top_down")', 0.5, [-0.3, 0.0, 0.3]),
+    "top_down: scaling the parent changes the spacing": (
+        'scale_1d(slat_row, origin=(0, 0, 0), dir=(1, 0, 0), amount=x)\n'
+        'change_count(slat_row, amount=2, mode="top_down")', 0.5, [-0.45 + 0.18 * j for j in range(6)]),
+    "top_down: scaling the parent changes the count": (
+        'scale_1d(slat_row, origin=(0, 0, 0), dir=(1, 0, 0), amount=x)\n'
+        'change_delta(slat_row, amount=0, mode="top_down")', 1.0, [-0.6 + 0.2 * j for j in range(7)]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_translation_group_layouts(case, parsel_shape, parsel_backend):
+    text, x, expected = CASES[case]
+    program = Program.from_text("param x in [0, 1]\n" + text)
+    numeric = evaluate(program, parsel_shape, {"x": x})
+    assert np.allclose(centres_x(numeric), expected, atol=1e-12), case
+    compiled = compile_program(program, parsel_shape, parsel_backend)({"x": x})
+    assert np.allclose(centres_x(compiled), expected, atol=1e-9), case
+    # every instance is a translated copy of the first member (as edited)
+    instances = numeric.instances["slat_row"]
+    shapes = instances - instances.mean(axis=1, keepdims=True)
+    assert np.allclose(shapes, shapes[0])
+    assert np.allclose(instances[:, :, 1:].mean(axis=1), [0.25, 0.0])
+
+
+def spokes(count=6):
+    base = Hexahedron.from_bounds((1, 0, -0.1), (2, 0.2, 0.1))
+    parts = [Part(f"spoke{j}", "spoke", Hexahedron(base.corners @ _rotation_matrix((0, 1, 0), 2 * math.pi * j
+                                                                                         / count).T))
+             for j in range(count)]
+    relation = RotationSymmetry("ring", tuple(p.id for p in parts), (0, 0, 0), (0, 1, 0), 2 * math.pi / count,
+                                tuple(tuple(range(8)) for _ in parts))
+    return ShapeGraph(parts, [relation])
+
+
+def angles(evaluation):
+    centres = evaluation.instances["ring"].mean(axis=1)
+    return np.sort(np.mod(np.round(np.degrees(np.arctan2(-centres[:, 2], centres[:, 0])), 6), 360))
+
+
+@pytest.mark.parametrize("text, expected", [
+    ('change_count(ring, amount=2, mode="bottom_up")', [45 * j for j in range(8)]),
+    ('change_count(ring, amount=-2, mode="top_down")', [90 * j for j in range(4)]),
+    ('change_delta(ring, amount=0.5, mode="bottom_up")', [0, 90, 180, 270, 0, 90]),
+    ('change_delta(ring, amount=1, mode="top_down")', [0, 120, 240]),
+])
+def test_rotation_group_layouts(text, expected):
+    evaluation = evaluate(Program.from_text(text), spokes(), {"x": 0})
+    assert np.allclose(angles(evaluation), np.sort(np.mod(expected, 360)), atol=1e-9)
+    radii = np.linalg.norm(evaluation.instances["ring"].mean(axis=1)[:, [0, 2]], axis=1)
+    assert np.allclose(radii, 1.5)
+
+
+def test_group_ops_need_a_group(parsel_shape):
+    from parsel_core.errors import ProgramFormatError, UnknownPartError
+
+    with pytest.raises(UnknownPartError, match="no symmetry group 'nope'"):
+        Program.from_text('change_count(nope, amount=1)').validate(parsel_shape)
+    with pytest.raises(ProgramFormatError, match="is a reflection"):
+        Program.from_text('change_count(reflect_rails, amount=1)').validate(parsel_shape)
+    with pytest.raises(ProgramFormatError, match="mode must be one of"):
+        Program.from_text('change_count(slat_row, amount=1, mode="sideways")')

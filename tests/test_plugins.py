@@ -255,8 +255,8 @@ def test_hook_register_commands(parsel_register, capsys):
 # -- installed plugins, environment controls and isolation --
 
 def run_parsel(*args, env=None):
-    environment = {**os.environ, **(env or {})}
-    environment.pop("PYTEST_CURRENT_TEST", None)
+    environment = {k: v for k, v in os.environ.items() if k not in ("PARSEL_STRICT_PLUGINS", "PARSEL_PLUGINS")}
+    environment.update(env or {})
     return subprocess.run([sys.executable, "-m", "parsel_core.cli", *args], capture_output=True, text=True,
                           env=environment, timeout=120)
 

@@ -162,6 +162,53 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def inspect_data(shape) -> dict:
+    """The ``parsel inspect --json`` document (schema in docs/formats.md)."""
+    return {
+        "format": "parsel.inspect",
+        "version": 1,
+        "shape": shape.name,
+        "source": shape.source,
+        "size": shape.size,
+        "parts": [
+            {"id": p.id, "name": p.name, "label": p.label, "corners": p.hexahedron.corners.tolist()}
+            for p in shape.parts.values()
+        ],
+        "groups": [
+            {"id": g.id, "members": list(shape.relations[g.id].members), "corners": g.hexahedron.corners.tolist()}
+            for g in shape.virtual_parents.values()
+        ],
+        "relations": [r.to_dict() for r in shape.relations.values()],
+    }
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """A table of a shape's parts and relations (``--json`` for machines, ``--png`` for a picture)."""
+    from parsel_core.drawing import save_shape_png
+    from parsel_core.loading import load_shape
+
+    shape = load_shape(args.shape, detect=not args.no_detect)
+    if args.png:
+        save_shape_png(shape, args.png)
+    if args.json:
+        print(json.dumps(inspect_data(shape), indent=1))
+        return 0
+    print(f"{shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations"
+          + (f" ({shape.source})" if shape.source else ""))
+    print(f"\n{'part':<28}{'label':<16}{'size (x, y, z)':<26}centre")
+    for part in shape.parts.values():
+        corners = part.hexahedron.corners
+        size = corners.max(axis=0) - corners.min(axis=0)
+        centre = part.hexahedron.center
+        print(f"{part.id:<28}{part.label:<16}{' '.join(f'{v:7.3f}' for v in size):<26}"
+              f"{' '.join(f'{v:7.3f}' for v in centre)}")
+    print(f"\n{'relation':<36}{'kind':<22}members")
+    for relation in shape.relations.values():
+        kind = relation.kind + (f" ({relation.contact})" if hasattr(relation, "contact") else "")
+        print(f"{relation.id:<36}{kind:<22}{', '.join(relation.members)}")
+    return 0
+
+
 def cmd_convert(args: argparse.Namespace) -> int:
     """Convert a program between its JSON and text forms (by the output suffix)."""
     from pathlib import Path
@@ -200,6 +247,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     _add_backend(p)
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("inspect", help="list a shape's parts and relations")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("--json", action="store_true", help="machine-readable output (schema: docs/formats.md)")
+    p.add_argument("--png", metavar="FILE", help="also draw the hexahedra, coloured by label, to FILE")
+    p.add_argument("--no-detect", action="store_true", help="do not run relation detectors")
+    p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("convert", help="convert a program between JSON (.json) and text form")
     p.add_argument("program")

@@ -9,19 +9,30 @@ from parsel_core.graph import ShapeGraph
 from parsel_core.program import Program
 
 
-def load_shape(spec: str) -> ShapeGraph:
-    """A bundled example by name (``tiny_table``, ``chair``) or a file any loader reads."""
+def load_shape(spec: str, detect: bool = True) -> ShapeGraph:
+    """A bundled example by name (``tiny_table``, ``chair``) or a file any loader reads.
+
+    A shape that arrives without relations (a mesh file) gets those the installed
+    detectors find, unless ``detect`` is false.
+    """
+    from parsel_core.detection import detect_relations
     from parsel_core.plugins import example_shapes, shape_loaders
 
-    examples = example_shapes()
+    shape = _read_shape(spec, example_shapes(), shape_loaders())
+    if detect and not shape.relations:
+        shape = detect_relations(shape)
+    return shape
+
+
+def _read_shape(spec: str, examples, loaders) -> ShapeGraph:
     if spec in examples and not Path(spec).exists():
         source = examples[spec]
-        return source() if callable(source) else load_shape(str(source))
+        return source() if callable(source) else _read_shape(str(source), {}, loaders)
     path = Path(spec)
     if not path.exists():
         names = ", ".join(sorted(examples)) or "none"
         raise ParselError(f"{spec}: no such file, and not an example shape (examples: {names})")
-    for loader in shape_loaders():
+    for loader in loaders:
         if loader.can_load(path):
             return loader.load(path)
     raise ParselError(f"{spec}: no installed loader reads this kind of file (suffix {path.suffix!r})")

@@ -82,3 +82,19 @@ def test_convert_to_unwritable_place_leaves_nothing(files, capsys):
     tmp, program, _ = files
     one_line_error(capsys, ["convert", str(program), str(tmp / "nope" / "p.json")], "does not exist")
     assert not (tmp / "nope").exists()
+
+
+def test_inspect_table_json_and_png(capsys, tmp_path):
+    assert main(["inspect", "tiny_table"]) == 0
+    out = capsys.readouterr().out
+    assert "tiny_table: 11 parts, 26 relations" in out
+    assert "attach_slat_0_rail_back" in out and "attachment (line)" in out
+    png = tmp_path / "table.png"
+    assert main(["inspect", "tiny_table", "--json", "--png", str(png)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["format"] == "parsel.inspect" and len(data["parts"]) == 11
+    assert {"id", "name", "label", "corners"} <= set(data["parts"][0])
+    assert {r["kind"] for r in data["relations"]} == {"reflection", "translation", "attachment", "ground"}
+    assert data["groups"][0]["id"] == "slat_row"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    one_line_error(capsys, ["inspect", "tiny_table", "--png", str(tmp_path / "missing" / "x.png")], "does not exist")

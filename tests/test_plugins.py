@@ -302,3 +302,30 @@ def test_broken_plugin_is_an_error_in_strict_mode(broken_plugin_path):
     result = run_parsel("plugins", env={**broken_plugin_path, "PARSEL_STRICT_PLUGINS": "1"})
     assert result.returncode != 0
     assert "parsel plugin 'broken'" in result.stderr
+
+
+def test_detectors_run_on_shapes_without_relations(parsel_register, tmp_path):
+    from parsel_core.detection import detect_relations
+    from parsel_core.examples import ground as ground_contact
+
+    class FloorOnly(RelationDetector):
+        name = "floor-only"
+
+        def detect(self, shape, tolerance):
+            return [ground_contact(f"g_{pid}", part) for pid, part in shape.parts.items()
+                    if part.hexahedron.corners[:, 1].min() < tolerance]
+
+    class Plugin:
+        @hookimpl
+        def parsel_relation_detectors(self):
+            return [FloorOnly()]
+
+    parsel_register(Plugin())
+    bare = ShapeGraph([Part("a", "a", Hexahedron.from_bounds((0, 0, 0), (1, 1, 1))),
+                       Part("b", "b", Hexahedron.from_bounds((0, 1, 0), (1, 2, 1)))], name="bare")
+    detected = detect_relations(bare, families=["floor-only"])
+    assert list(detected.relations) == ["g_a"]
+    path = tmp_path / "bare.shape.json"
+    path.write_text(json.dumps(bare.to_dict()))
+    assert "g_a" in load_shape(str(path)).relations
+    assert not load_shape(str(path), detect=False).relations

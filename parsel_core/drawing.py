@@ -1,0 +1,83 @@
+"""Headless pictures of hexahedra coloured by label, with relations marked (matplotlib, Agg)."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from parsel_core.graph import ShapeGraph
+from parsel_core.io import atomic_write_bytes
+from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry
+
+# The 12 edges of a hexahedron in canonical corner order: corners differing in one bit.
+HEX_EDGES = tuple((k, k ^ bit) for k in range(8) for bit in (4, 2, 1) if k < k ^ bit)
+
+
+def label_colours(labels) -> dict[str, tuple]:
+    """A stable colour per label (sorted labels over matplotlib's tab20)."""
+    from matplotlib import colormaps
+
+    palette = colormaps["tab20"]
+    return {label: palette(i % 20) for i, label in enumerate(sorted(set(labels)))}
+
+
+def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None = None,
+               relations: bool = True, title: str | None = None) -> None:
+    """Draw every real part's hexahedron on a 3D axis; y is drawn upwards."""
+    corners = shape.rest_corners() if corners is None else corners
+    colours = label_colours(p.label for p in shape.parts.values())
+
+    def view(points):  # world (x, y up, z front) -> plot (x, z, y) so y points up
+        points = np.asarray(points)
+        return points[..., 0], points[..., 2], points[..., 1]
+
+    for pid, part in shape.parts.items():
+        c = np.asarray(corners[pid])
+        for a, b in HEX_EDGES:
+            ax.plot(*view(c[[a, b]]), color=colours[part.label], linewidth=1.2)
+    if relations:
+        for relation in shape.relations.values():
+            if isinstance(relation, Attachment):
+                ax.scatter(*view(relation.points(corners)), color="red", s=8, depthshade=False)
+            elif isinstance(relation, GroundContact):
+                points = np.asarray(relation.weights) @ np.asarray(corners[relation.members[0]])
+                ax.scatter(*view(points), color="black", s=6, marker="s", depthshade=False)
+            elif isinstance(relation, ReflectionSymmetry):
+                centres = np.array([np.asarray(corners[m]).mean(axis=0) for m in relation.members])
+                ax.plot(*view(centres), color="grey", linestyle="--", linewidth=0.8)
+    everything = np.concatenate([np.asarray(corners[p]) for p in shape.parts])
+    lo, hi = everything.min(axis=0), everything.max(axis=0)
+    mid, radius = (lo + hi) / 2, (hi - lo).max() / 2 or 1.0
+    ax.set_xlim(mid[0] - radius, mid[0] + radius)
+    ax.set_ylim(mid[2] - radius, mid[2] + radius)
+    ax.set_zlim(mid[1] - radius, mid[1] + radius)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(elev=20, azim=-60)
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title, fontsize=9)
+
+
+def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np.ndarray] | None = None) -> None:
+    """One picture of the shape with a label legend, written atomically."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+    from matplotlib.lines import Line2D
+
+    figure = plt.figure(figsize=(6, 6), dpi=120)
+    ax = figure.add_subplot(projection="3d")
+    draw_shape(ax, shape, corners, title=f"{shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations")
+    colours = label_colours(p.label for p in shape.parts.values())
+    handles = [Line2D([], [], color=c, label=label) for label, c in colours.items()]
+    handles += [Line2D([], [], color="red", marker="o", linestyle="", label="attachment"),
+                Line2D([], [], color="grey", linestyle="--", label="reflection pair")]
+    ax.legend(handles=handles, loc="upper left", fontsize=7, frameon=False)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png")
+    plt.close(figure)
+    atomic_write_bytes(path, buffer.getvalue())

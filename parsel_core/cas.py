@@ -104,6 +104,16 @@ class CASBackend(ABC):
         return out
 
 
+_PRINTED_NAMES = {"Abs": "abs", "Min": "min", "Max": "max", "E": "e"}
+
+
+def normalise_printed(text: str) -> str:
+    """Rename the CAS printers' function names to the amount language's (``Abs`` -> ``abs``)."""
+    import re
+
+    return re.sub(r"\b(Abs|Min|Max|E)\b", lambda m: _PRINTED_NAMES[m.group(1)], text)
+
+
 def check_backend(backend: CASBackend) -> None:
     """Raise ``TypeError`` if a plugin's backend misses part of the interface."""
     missing = [name for name in (*FUNCTIONS, "pi", "e") if name not in backend.functions()]

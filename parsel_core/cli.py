@@ -209,6 +209,148 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parse_hints(items: list[str] | None) -> dict[str, str]:
+    hints = {}
+    for item in items or []:
+        part, sep, kind = item.partition("=")
+        if not sep or not part or not kind:
+            raise ParselError(f"--hint {item!r}: expected PART=translate|rotate|scale|keep")
+        hints[part] = kind
+    return hints
+
+
+def parse_seed(text: str):
+    """The seed edit: one or more ops in the program text form (separated by ';' or newlines)."""
+    from parsel_core.program import Program
+
+    lines = [line.strip() for chunk in text.split("\n") for line in chunk.split(";") if line.strip()]
+    if not lines:
+        raise ParselError("--seed is empty")
+    body = "\n".join(line if line.startswith("param ") else line for line in lines)
+    return Program.from_text(body, source="--seed")
+
+
+def write_outdir(outdir: str, files: dict[str, str]) -> None:
+    """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
+    import os
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    target = Path(outdir)
+    parent = target.resolve().parent
+    if not parent.is_dir():
+        raise ParselError(f"{outdir}: parent directory {parent} does not exist")
+    if target.exists() and not target.is_dir():
+        raise ParselError(f"{outdir}: exists and is not a directory")
+    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    try:
+        for name, text in files.items():
+            (staging / name).write_text(text, encoding="utf-8")
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
+            os.replace(target, old / "previous")
+            os.replace(staging, target)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(staging, target)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def cmd_edit(args: argparse.Namespace) -> int:
+    """Expert mode (the paper's human solver): a seed edit, hints and breaks -> a program."""
+    import time
+
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+    from parsel_core.plugins import get_cas_backend, get_named, solvers
+    from parsel_core.report import check_program
+
+    if args.seed is None:
+        raise ParselError("parsel edit needs --seed \"<op>\" (natural-language requests need an LLM provider plugin)")
+    solver = get_named("solver", solvers(), args.solver)
+    get_cas_backend(args.backend)  # fail early on an unknown backend
+    started = time.perf_counter()
+    shape = load_shape(args.shape)
+    load_s = time.perf_counter() - started
+    seed = parse_seed(args.seed)
+    seed.validate(shape)
+    options = {"nhbd": not args.no_nhbd, "breaking": not args.no_breaking, "backend": args.backend}
+    if args.tau is not None:
+        options["tau"] = args.tau
+    request = SolveRequest(shape, seed, _parse_hints(args.hint), tuple(args.break_ or ()), options)
+    result = solver.run(request)
+    program = result.program
+    metadata = {"solver": solver.name, "shape": shape.name, "seed": args.seed, "hints": dict(request.hints),
+                "breaks": list(request.breaks)}
+    program = type(program)(program.ops, program.parameters, metadata)
+    report = check_program(shape, program, request.breaks)
+    report.extra.update({
+        "shape": shape.name, "solver": solver.name, "rejected": result.rejected,
+        "stats": {**result.stats, "load_s": load_s},
+    })
+    write_outdir(args.output, {"program.json": program.to_json(),
+                               "report.json": json.dumps(report.to_dict(), indent=1) + "\n"})
+    counts = report.counts()
+    print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
+          f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
+    for state in report.relations:
+        if state.state == "broken":
+            print(f"  broken: {state.id} ({state.kind}: {', '.join(state.members)})")
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """Recompute the relation report of any program on a shape."""
+    from parsel_core.loading import load_program, load_shape
+    from parsel_core.report import check_program
+
+    shape = load_shape(args.shape)
+    program = load_program(args.program)
+    report = check_program(shape, program, tuple(args.break_ or ()), samples=args.samples)
+    if args.json:
+        print(json.dumps(report.to_dict(), indent=1))
+        return 0
+    counts = report.counts()
+    print(f"{shape.name}: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, "
+          f"{counts['broken']} broken (tolerance {report.tolerance:.2e}, {report.samples} samples)")
+    for state in report.relations:
+        print(f"  {state.state:<18} {state.id:<36} {state.kind:<12} max error {state.max_error:.2e}")
+    return 0
+
+
+def cmd_apply(args: argparse.Namespace) -> int:
+    """Evaluate a program at parameter values and export the edited shape."""
+    from pathlib import Path
+
+    from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_core.plugins import exporter_for
+    from parsel_core.program import evaluate
+
+    shape = load_shape(args.shape)
+    program = load_program(args.program)
+    program.validate(shape)
+    values = program.values(parse_assignments(args.set))
+    output = Path(args.output)
+    exporter = exporter_for(shape, output)
+    if args.sweep:
+        if args.sweep < 2:
+            raise ParselError("--sweep needs at least 2 steps")
+        name = program.parameters[0]
+        suffix = next(ext for ext in exporter.extensions if output.name.lower().endswith(ext))
+        stem = output.name[: -len(suffix)]
+        for i, value in enumerate(np.linspace(name.lo, name.hi, args.sweep)):
+            path = output.with_name(f"{stem}_{i:03d}{suffix}")
+            exporter.export(shape, evaluate(program, shape, {**values, name.name: value}), path)
+            print(path)
+        return 0
+    exporter.export(shape, evaluate(program, shape, values), output)
+    print(output)
+    return 0
+
+
 def cmd_convert(args: argparse.Namespace) -> int:
     """Convert a program between its JSON and text forms (by the output suffix)."""
     from pathlib import Path
@@ -247,6 +389,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     _add_backend(p)
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("edit", help="expert mode: propagate a seed edit into a complete program")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("request", nargs="?", help="an edit request in words (needs a language-model provider)")
+    p.add_argument("--seed", metavar="OP", help='seed op(s) in the program text form, e.g. '
+                   '"scale_1d(seat, origin=(0, 0.45, 0), dir=(1, 0, 0), amount=x)"')
+    p.add_argument("--hint", action="append", metavar="PART=TYPE", help="type hint: translate, rotate, scale or keep")
+    p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID",
+                   help="a relation the edit may break (repeatable)")
+    p.add_argument("--solver", default="aep", help="solver plugin (default: aep)")
+    p.add_argument("--tau", type=float, help="parameter range [0, tau] (default: chosen automatically)")
+    p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
+    p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
+    _add_backend(p)
+    p.set_defaults(func=cmd_edit)
+
+    p = sub.add_parser("check", help="the relation report of a program on a shape")
+    p.add_argument("shape")
+    p.add_argument("program")
+    p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID")
+    p.add_argument("--samples", type=int, default=50, help="parameter samples (ends included)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser("apply", help="export the edited shape at parameter values")
+    p.add_argument("shape")
+    p.add_argument("program")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE")
+    p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
+    p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter")
+    p.set_defaults(func=cmd_apply)
 
     p = sub.add_parser("inspect", help="list a shape's parts and relations")
     p.add_argument("shape", help="shape file or example name")

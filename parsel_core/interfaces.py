@@ -98,6 +98,16 @@ class SolveRequest:
     options: Mapping[str, Any] = field(default_factory=dict)
 
 
+@dataclass
+class SolveResult:
+    """A solver's program with what it learned on the way: relations it could not keep
+    (``rejected``) and statistics (times per stage, candidate counts) for the report."""
+
+    program: Program
+    rejected: list[str] = field(default_factory=list)
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
 class Solver(ABC):
     """Turns a seed edit into a complete program (edit propagation)."""
 
@@ -106,3 +116,7 @@ class Solver(ABC):
     @abstractmethod
     def solve(self, request: SolveRequest) -> Program:
         """A program that contains the seed edit and keeps as many relations as it can."""
+
+    def run(self, request: SolveRequest) -> SolveResult:
+        """``solve`` with statistics; solvers that gather them override this."""
+        return SolveResult(self.solve(request))

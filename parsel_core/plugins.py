@@ -214,6 +214,22 @@ def solvers() -> dict[str, Any]:
     return _instances("parsel_solvers", "solver")
 
 
+def exporter_for(shape, path) -> Any:
+    """The exporter for an output path: by suffix, preferring one that can export this shape
+    (mesh exporters need parts with meshes; the hexahedra exporters take any shape)."""
+    from pathlib import Path
+
+    name = Path(path).name.lower()
+    matching = [e for e in reversed(list(exporters().values())) if any(name.endswith(x) for x in e.extensions)]
+    if not matching:
+        known = sorted({x for e in exporters().values() for x in e.extensions})
+        raise UnknownPluginError(f"{path}: no exporter writes this format (known: {', '.join(known)})")
+    for exporter in matching:
+        if getattr(exporter, "can_export", lambda shape: True)(shape):
+            return exporter
+    return matching[-1]
+
+
 def example_shapes() -> dict[str, Any]:
     """Example name -> callable or path, later plugins overriding earlier ones."""
     out: dict[str, Any] = {}

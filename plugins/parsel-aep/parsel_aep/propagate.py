@@ -1,0 +1,352 @@
+"""Analytical Edit Propagation (paper section 5, supplement algorithms 1-3).
+
+From a seed edit, edits are added one part at a time until no relation is broken
+anywhere in [0, tau]:
+
+1. relations the user allows to break are dropped; hinted ``keep`` parts are fixed;
+2. the program so far is evaluated at samples of [0, tau] and broken relations gathered;
+3. a broken symmetry with an edited member is restored analytically (transfer.py);
+4. otherwise the undecided part with the most relations among those touching broken
+   relations is edited next (the minimum-entropy heuristic); a member of an intact
+   translation or rotation group is edited through the group's virtual parent;
+5. its candidates (candidates.py) are screened numerically against every relation
+   linking it to decided parts (screening.py); survivors are ranked (selection.py)
+   and the winner's amount is derived in closed form with the CAS (derive.py);
+6. failing that, nhbd-edits and then breaking-edits are tried; what cannot be kept is
+   rejected and reported.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from parsel_core.errors import ParselError, UnknownPartError
+from parsel_core.graph import GROUP_KINDS, ShapeGraph
+from parsel_core.interfaces import SolveRequest, SolveResult
+from parsel_core.ops import EditOp, KeepFixed
+from parsel_core.plugins import get_cas_backend
+from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
+from parsel_core.relations import Relation
+from parsel_core.report import check_program, tolerance_for
+from parsel_aep.candidates import HINT_TYPES, SIMPLICITY, candidate_family, neighbour_candidates, own_candidates
+from parsel_aep.derive import (
+    affine_amount,
+    amount_text,
+    evaluate_amount,
+    rotation_amount,
+    simpler_equivalent,
+    symbolic_residual,
+)
+from parsel_aep.screening import Screened, screen
+from parsel_aep.selection import HIGH_DISTORTION, arap_energy, symmetry_planes
+from parsel_aep.tau import automatic_tau
+from parsel_aep.transfer import transfer
+
+HINTS = (*HINT_TYPES, "keep")
+
+
+@dataclass(frozen=True)
+class AEPOptions:
+    """Switches for ablations (paper table 4) and numeric settings."""
+
+    nhbd: bool = True
+    breaking: bool = True
+    tau: float | None = None
+    tau_max: float = 1.0
+    samples: int = 17
+    relative_tolerance: float = 1e-4
+    backend: str | None = None
+
+    @classmethod
+    def from_mapping(cls, options: Mapping[str, Any]) -> AEPOptions:
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(options) - known)
+        if unknown:
+            raise ParselError(f"unknown AEP option(s): {', '.join(unknown)}")
+        return cls(**options)
+
+
+@dataclass
+class _State:
+    ops: list[EditOp]
+    decided: set[str]
+    rejected: set[str] = field(default_factory=set)
+    stats: dict[str, Any] = field(default_factory=lambda: {
+        "candidates_screened": 0, "candidates_valid": 0, "symmetry_transfers": 0, "searches": 0,
+        "nhbd_edits": 0, "breaking_edits": 0, "unfixed_parts": 0,
+        "time_s": {"tau": 0.0, "evaluate": 0.0, "screen": 0.0, "derive": 0.0, "verify": 0.0}})
+
+    def edited(self) -> set[str]:
+        return {op.operand for op in self.ops if op.acts_on == "part" and not isinstance(op, KeepFixed)}
+
+
+def validate_request(request: SolveRequest) -> None:
+    """Unknown parts, relations or hint types are one-line errors naming them."""
+    shape = request.shape
+    request.seed.validate(shape)
+    for part, hint in request.hints.items():
+        if part not in shape.parts and part not in shape.virtual_parents:
+            raise UnknownPartError(f"--hint {part}={hint}: shape {shape.name!r} has no part {part!r}")
+        if hint not in HINTS:
+            raise ParselError(f"--hint {part}={hint}: unknown hint type {hint!r} (known: {', '.join(HINTS)})")
+    for rid in request.breaks:
+        if rid not in shape.relations:
+            raise UnknownPartError(f"--break {rid}: shape {shape.name!r} has no relation {rid!r}")
+    if len(request.seed.parameters) != 1:
+        raise ParselError("edit propagation takes a seed with exactly one parameter")
+
+
+class Propagation:
+    """One run of AEP on a request; ``run()`` returns the program and what was learned."""
+
+    def __init__(self, request: SolveRequest) -> None:
+        validate_request(request)
+        self.request = request
+        self.shape: ShapeGraph = request.shape
+        self.options = AEPOptions.from_mapping(request.options)
+        self.backend = get_cas_backend(self.options.backend)
+        self.parameter = request.seed.parameters[0]
+        self.breaks = set(request.breaks)
+        self.relations = [r for r in self.shape.relations.values() if r.id not in self.breaks]
+        self.tolerance = tolerance_for(self.shape, self.options.relative_tolerance)
+        self.rest = self.shape.rest_corners()
+        self.hints = dict(request.hints)
+
+    # -- program bookkeeping -------------------------------------------------------
+
+    def program(self, ops: Sequence[EditOp]) -> Program:
+        return Program(tuple(ops), (self.params,), {"solver": "aep"})
+
+    def corners(self, ops: Sequence[EditOp]) -> dict[str, np.ndarray]:
+        return evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
+
+    def broken(self, state: _State, corners: Mapping[str, np.ndarray]) -> list[Relation]:
+        return [r for r in self.relations
+                if r.id not in state.rejected and float(np.max(r.error(corners))) >= self.tolerance]
+
+    # -- the loop ------------------------------------------------------------------
+
+    def run(self) -> SolveResult:
+        started = time.perf_counter()
+        seed = self.request.seed
+        state = _State(list(seed.ops), set())
+        clock = time.perf_counter()
+        tau = self.options.tau if self.options.tau is not None else automatic_tau(
+            self.shape, seed, self.options.tau_max)
+        if not tau > 0:
+            raise ParselError(f"tau must be positive, got {tau}")
+        state.stats["time_s"]["tau"] = time.perf_counter() - clock
+        default = self.parameter.default if self.parameter.default else tau / 2
+        self.params = Parameter(self.parameter.name, 0.0, float(tau), min(default, tau))
+        self.xs = np.linspace(0.0, tau, self.options.samples)
+        for op in seed.ops:
+            state.decided.add(op.operand)
+            if op.operand in self.shape.virtual_parents:
+                state.decided.update(self.shape.relations[op.operand].members)
+        for part, hint in sorted(self.hints.items()):
+            if hint == "keep" and part not in state.decided:
+                state.ops.append(KeepFixed(part))
+                state.decided.add(part)
+        for _ in range(4 * (len(self.shape.parts) + len(self.shape.virtual_parents)) + 4):
+            clock = time.perf_counter()
+            corners = self.corners(state.ops)
+            broken = self.broken(state, corners)
+            state.stats["time_s"]["evaluate"] += time.perf_counter() - clock
+            if not broken:
+                break
+            if self.restore_symmetries(state, broken):
+                continue
+            undecided = sorted({m for r in broken for m in r.members if m not in state.decided
+                                and m in self.shape.parts})
+            if not undecided:
+                state.rejected.update(r.id for r in broken)
+                break
+            target = min(undecided, key=lambda m: (-self.relation_count(m), m))
+            self.edit_part(state, target, corners)
+        else:
+            raise RuntimeError("edit propagation did not terminate")
+        program = self.program(state.ops)
+        clock = time.perf_counter()
+        # The final word is a check at random samples of the whole range (paper eq. 1).
+        report = check_program(self.shape.with_relations(self.relations), program, samples=50,
+                               tolerance=self.tolerance)
+        state.rejected.update(r.id for r in report.relations if r.state != "kept")
+        state.stats["time_s"]["verify"] = time.perf_counter() - clock
+        state.stats["time_s"]["total"] = time.perf_counter() - started
+        state.stats["tau"] = float(tau)
+        return SolveResult(program, sorted(state.rejected), state.stats)
+
+    def relation_count(self, part: str) -> int:
+        return sum(part in r.members for r in self.relations)
+
+    def restore_symmetries(self, state: _State, broken: Sequence[Relation]) -> bool:
+        """E* = T(E) for every broken symmetry with an edited and an undecided member."""
+        progress = False
+        edited = state.edited()
+        for relation in broken:
+            if relation.family != "symmetry":
+                continue
+            sources = [m for m in relation.members if m in edited]
+            targets = [m for m in relation.members if m not in state.decided]
+            if not sources or not targets:
+                continue
+            source = sources[0]
+            source_ops = [op for op in state.ops if op.operand == source and op.acts_on == "part"]
+            for target in targets:
+                try:
+                    new_ops = transfer(source_ops, relation, source, target)
+                except ValueError:
+                    continue
+                state.ops.extend(new_ops)
+                state.decided.add(target)
+                state.stats["symmetry_transfers"] += 1
+                progress = True
+        return progress
+
+    # -- searching one part's edit -------------------------------------------------
+
+    def edit_part(self, state: _State, target: str, corners: Mapping[str, np.ndarray]) -> None:
+        operand, moving = target, (target,)
+        for group in self.shape.groups_of(target):
+            members = self.shape.relations[group].members
+            if group not in self.breaks and not (set(members) & state.decided):
+                operand, moving = group, tuple(members)
+                break
+        constraints = [r for r in self.relations
+                       if r.id not in state.rejected and r.id != operand and set(r.members) & set(moving)
+                       and set(r.members) <= set(moving) | state.decided]
+        state.stats["searches"] += 1
+        choice = self.search(state, operand, moving, constraints, corners) if constraints else None
+        if choice is not None:
+            op, broken = choice
+            if op is not None:  # a breaking-edit may be to leave the part where it is
+                state.ops.append(op)
+            state.rejected.update(broken)
+        else:
+            state.stats["unfixed_parts"] += 1
+            state.rejected.update(r.id for r in constraints if float(np.max(r.error(corners))) >= self.tolerance)
+        state.decided.update(moving)
+        state.decided.add(operand)
+
+    def search(self, state: _State, operand: str, moving: tuple[str, ...], constraints: list[Relation],
+               corners: Mapping[str, np.ndarray]) -> tuple[EditOp | None, tuple[str, ...]] | None:
+        """The chosen edit and the constraints it leaves broken; ``None`` when nothing helps."""
+        hint = self.hints.get(operand) or self.hints.get(moving[0])
+        hexahedron = self.shape.part(operand).hexahedron
+        rest = {m: self.rest[m] for m in moving}
+        others = {m: corners[m] for r in constraints for m in r.members if m not in rest}
+        own = own_candidates(operand, hexahedron, hint)
+        found = self.screen_and_pick(state, own, rest, others, constraints)
+        extra: list[EditOp] = []
+        if found is None and self.options.nhbd:
+            extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
+            found = self.screen_and_pick(state, extra, rest, others, constraints)
+            if found is not None:
+                state.stats["nhbd_edits"] += 1
+        if found is None and self.options.breaking:
+            found = self.screen_and_pick(state, own + extra, rest, others, constraints, breaking=True)
+            if found is not None:
+                state.stats["breaking_edits"] += 1
+        if found is None:
+            return None
+        screened, broken = found
+        if np.abs(screened.f).max() < 1e-12:
+            return None, broken
+        op = self.closed_form(state, screened, rest, constraints, broken)
+        return (op, broken) if op is not None else None
+
+    def neighbour_candidates(self, state: _State, operand: str, moving: tuple[str, ...], hexahedron,
+                             hint: str | None) -> list[EditOp]:
+        neighbours = sorted({n for m in moving for n in self.shape.neighbours(m)} & state.edited() - set(moving))
+        ops = [op for op in state.ops if op.operand in neighbours]
+        boxes = [self.shape.part(n).hexahedron for n in neighbours]
+        return neighbour_candidates(operand, hexahedron, ops, boxes, hint)
+
+    def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
+                        breaking: bool = False) -> tuple[Screened, tuple[str, ...]] | None:
+        clock = time.perf_counter()
+        results = screen(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
+        state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        state.stats["candidates_screened"] += len(candidates)
+        if breaking:
+            currently = len(constraints)
+            results = [s for s in results if len(s.broken) < currently]
+            if not results:
+                return None
+            fewest = min(len(s.broken) for s in results)
+            pool = [s for s in results if len(s.broken) == fewest]
+        else:
+            pool = [s for s in results if not s.broken]
+            state.stats["candidates_valid"] += len(pool)
+        if not pool:
+            return None
+        best = self.rank(pool, rest)
+        return best, best.broken
+
+    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened:
+        """Drop high-distortion edits, then most symmetry planes, least ARAP energy, simplest."""
+        scored = []
+        for s in pool:
+            amount = float(s.f[-1])
+            energy = planes = 0.0
+            for pid, corners in rest.items():
+                edited = s.op.apply(corners, amount, np)
+                energy += arap_energy(corners, edited)
+                planes += symmetry_planes(edited)
+            family = candidate_family(s.op)
+            scored.append((energy > HIGH_DISTORTION, -planes, round(energy, 9), SIMPLICITY.index(family)
+                           if family in SIMPLICITY else len(SIMPLICITY), s.index, s))
+        scored.sort(key=lambda t: t[:5])
+        return scored[0][-1]
+
+    def closed_form(self, state: _State, screened: Screened, rest, constraints, broken) -> EditOp | None:
+        """Derive the winner's amount with the CAS and check it against the screened values."""
+        clock = time.perf_counter()
+        kept = [r for r in constraints if r.id not in broken]
+        others = sorted({m for r in kept for m in r.members if m not in rest})
+        symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
+        residual = symbolic_residual(kept, {**symbolic, **rest})
+        columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
+                                                                            constraints) if r.id not in broken])
+        if screened.kind == "affine":
+            expr = affine_amount(self.backend, screened.a[columns], residual)
+        else:
+            expr = rotation_amount(self.backend, screened.a[columns], self._offset(screened, columns), residual)
+        text = amount_text(self.backend, expr)
+        if screened.kind == "rotation":
+            known = sorted({op.amount for op in state.ops if op.amount not in ("0", "f")})
+            text = simpler_equivalent(text, known, self.parameter.name, self.xs)
+        state.stats["time_s"]["derive"] += time.perf_counter() - clock
+        values = evaluate_amount(text, self.parameter.name, self.xs)
+        if not np.allclose(values, screened.f, atol=1e-6 * max(1.0, float(np.abs(screened.f).max()))):
+            if screened.kind == "affine" and not broken:
+                return None
+        return dataclasses.replace(screened.op, amount=text)
+
+    def _slices(self, constraints, rest):
+        out, start = [], 0
+        sample = {pid: c for pid, c in self.rest.items()}
+        for r in constraints:
+            size = np.asarray(r.residual(sample)).shape[-1]
+            out.append(slice(start, start + size))
+            start += size
+        return out
+
+    @staticmethod
+    def _offset(screened: Screened, columns) -> np.ndarray:
+        return screened.offset[columns]
+
+
+def propagate(request: SolveRequest) -> SolveResult:
+    """Run AEP on a request (see :class:`Propagation`)."""
+    return Propagation(request).run()
+
+
+def group_ids(shape: ShapeGraph) -> list[str]:
+    return [rid for rid, r in shape.relations.items() if r.kind in GROUP_KINDS]

@@ -24,7 +24,7 @@ import numpy as np
 
 from parsel_core.cage import point_weights
 from parsel_core.ops import ChangeCount, ChangeDelta, GroupOp
-from parsel_core.relations import Relation, RotationSymmetry, TranslationSymmetry, _rotation_matrix
+from parsel_core.relations import Relation, RotationSymmetry, TranslationSymmetry, rotation_matrix
 
 
 def _round_half_up(value: float) -> int:
@@ -92,7 +92,7 @@ def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent:
                 full = 2 * math.pi if closed else abs(span)
                 count = max(1, int(math.floor(full / abs(angle) + 1e-9)) + (0 if closed else 1))
     template = members[0] - center
-    return np.stack([center + template @ _rotation_matrix(relation.axis, j * angle).T for j in range(count)])
+    return np.stack([center + template @ rotation_matrix(relation.axis, j * angle).T for j in range(count)])
 
 
 def group_instances(relation: Relation, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],

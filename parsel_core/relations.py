@@ -23,7 +23,7 @@ def _vec(v) -> np.ndarray:
     return np.asarray(v, dtype=float)
 
 
-def _rotation_matrix(axis, angle: float) -> np.ndarray:
+def rotation_matrix(axis, angle: float) -> np.ndarray:
     n = _vec(axis) / np.linalg.norm(axis)
     k = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
     return np.cos(angle) * np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * np.outer(n, n)
@@ -145,7 +145,7 @@ class RotationSymmetry(Relation):
         for j in range(1, len(self.members)):
             perm = self.correspondence[j] if self.correspondence else tuple(range(8))
             hj = corners[self.members[j]][..., list(perm), :]
-            r = _rotation_matrix(self.axis, j * self.angle)
+            r = rotation_matrix(self.axis, j * self.angle)
             expected = o + (h0 - o) @ r.T if h0.dtype != object else o + np.dot(h0 - o, r.T)
             parts.append(_flat(hj - expected))
         return np.concatenate(parts, axis=-1)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from parsel_core import Hexahedron, Part, Program, ShapeGraph, compile_program, evaluate
-from parsel_core.relations import RotationSymmetry, _rotation_matrix
+from parsel_core.relations import RotationSymmetry, rotation_matrix
 
 
 def centres_x(evaluation, group="slat_row"):
@@ -53,7 +53,7 @@ def test_translation_group_layouts(case, parsel_shape, parsel_backend):
 
 def spokes(count=6):
     base = Hexahedron.from_bounds((1, 0, -0.1), (2, 0.2, 0.1))
-    parts = [Part(f"spoke{j}", "spoke", Hexahedron(base.corners @ _rotation_matrix((0, 1, 0), 2 * math.pi * j
+    parts = [Part(f"spoke{j}", "spoke", Hexahedron(base.corners @ rotation_matrix((0, 1, 0), 2 * math.pi * j
                                                                                          / count).T))
              for j in range(count)]
     relation = RotationSymmetry("ring", tuple(p.id for p in parts), (0, 0, 0), (0, 1, 0), 2 * math.pi / count,

@@ -79,12 +79,12 @@ def test_kept_relations_are_zero_over_the_whole_range(parsel_shape, parsel_backe
 
 def test_rotation_symmetry_constraint():
     from parsel_core import Hexahedron, Part, ShapeGraph
-    from parsel_core.relations import _rotation_matrix
+    from parsel_core.relations import rotation_matrix
 
     base = Hexahedron.from_bounds((1, 0, -0.1), (2, 0.2, 0.1))
     parts = []
     for j in range(5):
-        r = _rotation_matrix((0, 1, 0), 2 * np.pi * j / 5)
+        r = rotation_matrix((0, 1, 0), 2 * np.pi * j / 5)
         parts.append(Part(f"spoke{j}", "spoke", Hexahedron(base.corners @ r.T)))
     relation = RotationSymmetry("spokes", tuple(p.id for p in parts), (0, 0, 0), (0, 1, 0), 2 * np.pi / 5,
                                 tuple(tuple(range(8)) for _ in parts))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from parsel_core import hookimpl
-from parsel_core.interfaces import SolveRequest, SolveResult, Solver
+from parsel_core.interfaces import Solver, SolveRequest, SolveResult
 
 
 class AEPSolver(Solver):

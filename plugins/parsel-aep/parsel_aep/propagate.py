@@ -26,14 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.errors import ParselError, UnknownPartError
-from parsel_core.graph import GROUP_KINDS, ShapeGraph
-from parsel_core.interfaces import SolveRequest, SolveResult
-from parsel_core.ops import EditOp, KeepFixed
-from parsel_core.plugins import get_cas_backend
-from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
-from parsel_core.relations import Relation
-from parsel_core.report import check_program, tolerance_for
 from parsel_aep.candidates import HINT_TYPES, SIMPLICITY, candidate_family, neighbour_candidates, own_candidates
 from parsel_aep.derive import (
     affine_amount,
@@ -47,6 +39,14 @@ from parsel_aep.screening import Screened, screen
 from parsel_aep.selection import HIGH_DISTORTION, arap_energy, symmetry_planes
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
+from parsel_core.errors import ParselError, UnknownPartError
+from parsel_core.graph import GROUP_KINDS, ShapeGraph
+from parsel_core.interfaces import SolveRequest, SolveResult
+from parsel_core.ops import EditOp, KeepFixed
+from parsel_core.plugins import get_cas_backend
+from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
+from parsel_core.relations import Relation
+from parsel_core.report import check_program, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
 
@@ -295,7 +295,7 @@ class Propagation:
         for s in pool:
             amount = float(s.f[-1])
             energy = planes = 0.0
-            for pid, corners in rest.items():
+            for corners in rest.values():
                 edited = s.op.apply(corners, amount, np)
                 energy += arap_energy(corners, edited)
                 planes += symmetry_planes(edited)

@@ -16,7 +16,7 @@ import numpy as np
 
 from parsel_core.hexahedron import CORNER_NAMES, EDGE_NAMES, FACE_NAMES, feature_corners
 from parsel_core.ops import EditOp, Rotate
-from parsel_core.relations import Relation, ReflectionSymmetry, RotationSymmetry, TranslationSymmetry, _rotation_matrix
+from parsel_core.relations import ReflectionSymmetry, Relation, RotationSymmetry, TranslationSymmetry, rotation_matrix
 
 _FEATURE_BY_CORNERS = {frozenset(feature_corners(n)): n for n in FACE_NAMES + EDGE_NAMES + CORNER_NAMES}
 
@@ -89,7 +89,7 @@ def transfer(ops: Sequence[EditOp], relation: Relation, source: str, target: str
             out.append(_conjugate(op, target, lambda p, s=shift: p + s, lambda d: d, feature, False))
         elif isinstance(relation, RotationSymmetry):
             steps = relation.members.index(target) - relation.members.index(source)
-            r = _rotation_matrix(relation.axis, steps * relation.angle)
+            r = rotation_matrix(relation.axis, steps * relation.angle)
             c = np.asarray(relation.center)
             out.append(_conjugate(op, target, lambda p, r=r, c=c: c + r @ (p - c), lambda d, r=r: r @ d, feature,
                                   False))

@@ -36,7 +36,7 @@ from parsel_aep.derive import (
     symbolic_residual,
 )
 from parsel_aep.screening import Screened, screen
-from parsel_aep.selection import HIGH_DISTORTION, arap_energy, symmetry_planes
+from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
 from parsel_core.errors import ParselError, UnknownPartError
@@ -287,23 +287,26 @@ class Propagation:
         if not pool:
             return None
         best = self.rank(pool, rest)
-        return best, best.broken
+        return (best, best.broken) if best is not None else None
 
-    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened:
+    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened | None:
         """Drop high-distortion edits, then most symmetry planes, least ARAP energy, simplest."""
+        energy = np.zeros(len(pool))
+        planes = np.zeros(len(pool))
+        for corners in rest.values():
+            edited = np.stack([s.op.apply(corners, float(s.f[-1]), np) for s in pool])
+            energy += arap_energies(corners, edited)
+            planes += symmetry_plane_counts(edited)
+        energy /= len(rest)
         scored = []
-        for s in pool:
-            amount = float(s.f[-1])
-            energy = planes = 0.0
-            for corners in rest.values():
-                edited = s.op.apply(corners, amount, np)
-                energy += arap_energy(corners, edited)
-                planes += symmetry_planes(edited)
+        for s, e, p in zip(pool, energy, planes):
+            if e > HIGH_DISTORTION:
+                continue
             family = candidate_family(s.op)
-            scored.append((energy > HIGH_DISTORTION, -planes, round(energy, 9), SIMPLICITY.index(family)
-                           if family in SIMPLICITY else len(SIMPLICITY), s.index, s))
-        scored.sort(key=lambda t: t[:5])
-        return scored[0][-1]
+            simplicity = SIMPLICITY.index(family) if family in SIMPLICITY else len(SIMPLICITY)
+            scored.append((-p, round(float(e), 9), simplicity, s.index, s))
+        scored.sort(key=lambda t: t[:4])
+        return scored[0][-1] if scored else None
 
     def closed_form(self, state: _State, screened: Screened, rest, constraints, broken) -> EditOp | None:
         """Derive the winner's amount with the CAS and check it against the screened values."""

@@ -122,6 +122,19 @@ def _rotation_amounts(system: _System, n: int, columns) -> np.ndarray | None:
     return np.arctan2(cs[1], cs[0])
 
 
+def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.ndarray]:
+    """Angles (N, S) minimising ``|A c + B s + gamma|`` (normal equations, then normalised)."""
+    m = system.matrix[:, columns]                                                        # (N, K, 2)
+    gamma = system.r0[None, :, columns] - system.offset[:, None, columns]                 # (N, S, K)
+    normal = np.einsum("nkc,nkd->ncd", m, m)
+    usable = np.abs(m).max(axis=(1, 2)) > 1e-12
+    normal[~usable] = np.eye(2)
+    normal += 1e-15 * np.eye(2)
+    rhs = -np.einsum("nkc,nsk->ncs", m, gamma)
+    cs = np.linalg.solve(normal, rhs)                                                    # (N, 2, S)
+    return np.arctan2(cs[:, 1], cs[:, 0]), usable
+
+
 def _broken(system: _System, residual: np.ndarray, tolerance: float) -> tuple[str, ...]:
     errors = relation_max_errors(residual[None], system.slices)[0]
     return tuple(rid for rid, e in zip(system.ids, errors) if e >= tolerance)
@@ -157,11 +170,16 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
                 if usable[n]:
                     broken = tuple(rid for rid, e in zip(system.ids, errors[n]) if e >= tolerance)
                     results.append(Screened(op, index, f[n], broken, "affine", system.slope[n], system.r0))
-        for n, (index, op) in enumerate(system.rotations):
-            f = _rotation_amounts(system, n, columns)
-            if f is None:
-                continue
-            broken = _broken(system, _rotation_residual(system, n, f), tolerance)
-            results.append(Screened(op, index, f, broken, "rotation", system.matrix[n], system.offset[n]))
+        if system.rotations:
+            f_all, usable = _rotation_amounts_batch(system, columns)
+            cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
+            residual = (np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
+                        + system.r0[None] - system.offset[:, None, :])
+            errors = relation_max_errors(residual, system.slices)
+            for n, (index, op) in enumerate(system.rotations):
+                if usable[n]:
+                    broken = tuple(rid for rid, e in zip(system.ids, errors[n]) if e >= tolerance)
+                    results.append(Screened(op, index, f_all[n], broken, "rotation", system.matrix[n],
+                                            system.offset[n]))
     results.sort(key=lambda s: (s.index, len(s.broken)))
     return results

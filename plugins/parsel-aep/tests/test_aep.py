@@ -1,0 +1,171 @@
+"""Analytical Edit Propagation on designed cases with known answers."""
+
+import json
+
+import numpy as np
+import pytest
+
+from parsel_core import Part, Program, ShapeGraph, evaluate
+from parsel_core.cli import main
+from parsel_core.errors import ParselError, UnknownPartError
+from parsel_core.examples import attachment, box, ground, reflection, tiny_table
+from parsel_core.interfaces import SolveRequest
+from parsel_core.plugins import solvers
+from parsel_core.report import check_program
+
+
+def solve(shape, seed_text, **kwargs):
+    return solvers()["aep"].run(SolveRequest(shape, Program.from_text(seed_text), **kwargs))
+
+
+def ops_on(program, part):
+    return [op for op in program.ops if op.operand == part]
+
+
+def test_widen_table_top_moves_legs_apart_mirrored_and_keeps_everything(parsel_backend):
+    shape = tiny_table()
+    result = solve(shape, "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)",
+                   options={"backend": parsel_backend.name})
+    program = result.program
+    assert result.rejected == []
+    report = check_program(shape, program)
+    assert report.counts() == {"kept": 26, "broken_on_purpose": 0, "broken": 0}
+    for leg in ("leg_bl", "leg_br", "leg_fl", "leg_fr"):
+        (op,) = ops_on(program, leg)
+        assert op.name == "translate" and abs(op.dir[0]) == 1.0  # legs move, they do not stretch
+    corners = evaluate(program, shape, {"x": 0.5}).parts
+    assert np.allclose(corners["leg_br"].mean(axis=0), (0.45 * 1.5, 0.35, -0.25))
+    assert np.allclose(corners["leg_bl"].mean(axis=0), (-0.45 * 1.5, 0.35, -0.25))
+    (rail,) = ops_on(program, "rail_back")
+    assert rail.name == "scale_1d"
+    assert ops_on(program, "slat_row"), "the slat row is edited through its virtual parent"
+
+
+def test_raise_table_top_lengthens_legs_instead_of_moving_them():
+    shape = tiny_table()
+    program = solve(shape, "translate(top, dir=(0, 1, 0), amount=x)").program
+    for leg in ("leg_bl", "leg_br", "leg_fl", "leg_fr"):
+        (op,) = ops_on(program, leg)
+        assert op.name in ("scale_1d", "translate") and (op.name == "scale_1d" or op.feature == "v+")
+    corners = evaluate(program, shape, {"x": 0.3}).parts
+    assert corners["leg_fl"][:, 1].min() == pytest.approx(0.0)
+    assert corners["leg_fl"][:, 1].max() == pytest.approx(1.0)
+    assert check_program(shape, program).counts()["broken"] == 0
+
+
+def cabinet() -> ShapeGraph:
+    body = Part("body", "body", box((-0.4, 0.0, -0.2), (0.4, 0.9, 0.2)))
+    door_l = Part("door_l", "door", box((-0.4, 0.05, 0.2), (0.0, 0.85, 0.22)))
+    door_r = Part("door_r", "door", box((0.0, 0.05, 0.2), (0.4, 0.85, 0.22)))
+    handle_l = Part("handle_l", "handle", box((-0.06, 0.4, 0.22), (-0.04, 0.5, 0.25)))
+    handle_r = Part("handle_r", "handle", box((0.04, 0.4, 0.22), (0.06, 0.5, 0.25)))
+    relations = [reflection("mirror_doors", door_l, door_r, (0, 0, 0), (1, 0, 0)),
+                 reflection("mirror_handles", handle_l, handle_r, (0, 0, 0), (1, 0, 0)),
+                 attachment("door_l_body", door_l, body, "face"), attachment("door_r_body", door_r, body, "face"),
+                 attachment("handle_on_l", handle_l, door_l), attachment("handle_on_r", handle_r, door_r),
+                 ground("ground_body", body)]
+    return ShapeGraph([body, door_l, door_r, handle_l, handle_r], relations, name="cabinet")
+
+
+OPEN_DOOR = "rotate(door_l, origin=(-0.4, 0.45, 0.2), axis=(0, 1, 0), amount=x)"
+
+
+def test_handle_follows_its_door_about_the_hinge_with_nhbd_edits():
+    shape = cabinet()
+    result = solve(shape, OPEN_DOOR, breaks=("door_l_body", "door_r_body"))
+    (handle,) = ops_on(result.program, "handle_l")
+    assert handle.name == "rotate" and handle.origin == (-0.4, 0.45, 0.2) and handle.axis == (0.0, 1.0, 0.0)
+    assert handle.amount == "x"
+    assert result.stats["nhbd_edits"] >= 1
+    report = check_program(shape, result.program, ("door_l_body", "door_r_body"))
+    states = report.states()
+    assert states["handle_on_l"] == states["handle_on_r"] == "kept"
+    assert states["door_l_body"] == "broken_on_purpose"
+
+
+def test_without_nhbd_the_handle_comes_off():
+    shape = cabinet()
+    result = solve(shape, OPEN_DOOR, breaks=("door_l_body", "door_r_body"), options={"nhbd": False})
+    assert not ops_on(result.program, "handle_l")
+    assert "handle_on_l" in result.rejected
+    assert check_program(shape, result.program).states()["handle_on_l"] == "broken"
+
+
+def test_impossible_request_yields_a_breaking_edit_and_says_what_broke():
+    # legs may only translate, so they cannot both stay on the floor and follow a raised top
+    shape = tiny_table()
+    hints = {leg: "translate" for leg in ("leg_bl", "leg_br", "leg_fl", "leg_fr")}
+    result = solve(shape, "translate(top, dir=(0, 1, 0), amount=x)", hints=hints)
+    assert result.stats["breaking_edits"] >= 1
+    broken = set(result.rejected)
+    assert broken and broken <= {r for r in shape.relations if r.startswith(("ground_", "attach_top_"))}
+    states = check_program(shape, result.program).states()
+    assert all(states[r] == "broken" for r in broken)
+    without = solve(shape, "translate(top, dir=(0, 1, 0), amount=x)", hints=hints, options={"breaking": False})
+    assert without.stats["breaking_edits"] == 0
+
+
+def test_keep_hint_fixes_a_part():
+    shape = tiny_table()
+    result = solve(shape, "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)",
+                   hints={"rail_back": "keep"})
+    assert [op.name for op in ops_on(result.program, "rail_back")] == ["keep_fixed"]
+    # legs cannot stay on a fixed rail and under a widening top at once: what breaks is reported
+    states = check_program(shape, result.program).states()
+    assert result.rejected and set(result.rejected) == {r for r, state in states.items() if state == "broken"}
+    assert result.stats["breaking_edits"] >= 1
+
+
+def test_tau_is_chosen_before_the_seed_collapses_a_part():
+    shape = tiny_table()
+    result = solve(shape, "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=-x)")
+    tau = result.program.parameters[0].hi
+    assert 0.9 <= tau < 0.95  # the top's width (1 - x) drops below 5% of itself at x = 0.95
+
+
+@pytest.mark.parametrize("hints, breaks, message", [
+    ({"seat": "scale"}, (), "no part 'seat'"),
+    ({"top": "stretch"}, (), "unknown hint type 'stretch'"),
+    ({}, ("no_such_relation",), "no relation 'no_such_relation'"),
+])
+def test_bad_requests_are_named(hints, breaks, message):
+    with pytest.raises((ParselError, UnknownPartError), match=message):
+        solve(tiny_table(), "translate(top, dir=(0, 1, 0), amount=x)", hints=hints, breaks=breaks)
+
+
+SEED = "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)"
+
+
+def test_edit_command_writes_program_and_report_deterministically(tmp_path, capsys):
+    outputs = []
+    for name in ("a", "b"):
+        assert main(["edit", "tiny_table", "--seed", SEED, "-o", str(tmp_path / name)]) == 0
+        outputs.append((tmp_path / name / "program.json").read_bytes())
+    assert outputs[0] == outputs[1]
+    report = json.loads((tmp_path / "a" / "report.json").read_text())
+    assert report["counts"] == {"kept": 26, "broken_on_purpose": 0, "broken": 0}
+    assert {"screen", "derive", "evaluate", "verify", "total"} <= set(report["stats"]["time_s"])
+    assert report["stats"]["candidates_screened"] > 100
+    assert len(report["relations"]) == 26 and report["relations"][0]["state"] == "kept"
+    capsys.readouterr()
+    assert main(["check", "tiny_table", str(tmp_path / "a" / "program.json"), "--json"]) == 0
+    checked = json.loads(capsys.readouterr().out)
+    assert checked["counts"] == report["counts"]
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["--seed", "translate(seat, dir=(1, 0, 0), amount=x)"], "no part 'seat'"),
+    (["--seed", "translate(top, dir=(1, 0, 0), amount=x"], "--seed:1"),
+    (["--seed", SEED, "--hint", "top=wiggle"], "unknown hint type 'wiggle'"),
+    (["--seed", SEED, "--hint", "nope"], "--hint 'nope'"),
+    (["--seed", SEED, "--break", "glue_9"], "no relation 'glue_9'"),
+    (["--seed", SEED, "--backend", "maple"], "unknown CAS backend"),
+    (["--seed", SEED, "--solver", "oracle"], "unknown solver 'oracle'"),
+])
+def test_edit_bad_input_is_one_line_exit_2_and_no_outdir(tmp_path, capsys, argv, fragment):
+    out = tmp_path / "out"
+    assert main(["edit", "tiny_table", *argv, "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and fragment in err, err
+    assert not out.exists()
+    assert [p.name for p in tmp_path.iterdir()] == []

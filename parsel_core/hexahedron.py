@@ -120,6 +120,23 @@ class Hexahedron:
         return cls(center + offsets @ axes)
 
     @classmethod
+    def canonical_box(cls, center, size, axes) -> Hexahedron:
+        """A box with its axes (rows) matched to world x, y, z and pointing their positive way.
+
+        Loaders use this so that every box of a shape follows one convention: u is the
+        box axis closest to world x (then v to y, w to z, chosen jointly), each flipped to
+        point along its world axis. A part and its translated copy then get identical
+        corner orders, and a mirror image gets the mirrored order (corner k <-> k ^ 4 for
+        a mirror across x), which is what symmetry detection relies on.
+        """
+        axes = np.asarray(axes, dtype=float)
+        size = np.asarray(size, dtype=float)
+        alignment = np.abs(axes)  # alignment[i, j]: |cos| between box axis i and world axis j
+        best = max(itertools.permutations(range(3)), key=lambda p: sum(alignment[p[j], j] for j in range(3)))
+        ordered = np.array([axes[best[j]] * (1.0 if axes[best[j], j] >= 0 else -1.0) for j in range(3)])
+        return cls.from_box(center, size[list(best)], ordered)
+
+    @classmethod
     def from_bounds(cls, lo, hi) -> Hexahedron:
         """An axis-aligned box from its minimum and maximum points."""
         lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)

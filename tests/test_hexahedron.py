@@ -85,3 +85,15 @@ def test_cage_coordinates_reproduce_points_in_boxes_and_tapers():
     uvw = rng.uniform(0, 1, size=(40, 3))
     points = cage_weights(uvw) @ tapered
     assert np.allclose(inverse_trilinear(tapered, points), uvw, atol=1e-10)
+
+
+def test_canonical_box_matches_axes_to_world_and_mirrors_to_k_xor_4():
+    turned = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    h = Hexahedron.canonical_box((0, 0, 0), (1, 2, 3), turned)
+    assert np.allclose(h.local_axes, np.eye(3)) and np.allclose(h.extents, (3, 2, 1))
+    tilt = np.linalg.qr(np.array([[1.0, 0.2, 0.1], [-0.2, 1.0, 0.05], [-0.1, -0.05, 1.0]]))[0].T
+    tilt *= np.sign(np.diag(tilt))[:, None]
+    a = Hexahedron.canonical_box((1.0, 0.5, 0.2), (0.2, 1.0, 0.3), tilt)
+    mirror = np.diag([-1.0, 1.0, 1.0])
+    b = Hexahedron.canonical_box((-1.0, 0.5, 0.2), (0.2, 1.0, 0.3), tilt @ mirror)
+    assert np.allclose(b.corners, (a.corners @ mirror)[[k ^ 4 for k in range(8)]])

@@ -238,6 +238,17 @@ def example_shapes() -> dict[str, Any]:
     return out
 
 
+def prompt_templates() -> dict[str, str]:
+    """Template name -> text, later plugins overriding earlier ones (paths are read)."""
+    from pathlib import Path
+
+    out: dict[str, str] = {}
+    for result in reversed(get_plugin_manager().hook.parsel_prompt_templates()):
+        for name, template in (result or {}).items():
+            out[name] = Path(template).read_text(encoding="utf-8") if isinstance(template, Path) else template
+    return out
+
+
 def get_named(kind: str, table: dict[str, Any], name: str) -> Any:
     """Look a contribution up by name with a one-line error listing what exists."""
     if name not in table:

@@ -329,3 +329,20 @@ def test_detectors_run_on_shapes_without_relations(parsel_register, tmp_path):
     path.write_text(json.dumps(bare.to_dict()))
     assert "g_a" in load_shape(str(path)).relations
     assert not load_shape(str(path), detect=False).relations
+
+
+def test_hook_prompt_templates(parsel_register, tmp_path):
+    from pathlib import Path
+
+    template = tmp_path / "seed.txt"
+    template.write_text("Edit {shape} as asked: {request}")
+
+    class Plugin:
+        @hookimpl
+        def parsel_prompt_templates(self):
+            return {"seed_edit": Path(template), "type_hints": "hints for {shape}"}
+
+    parsel_register(Plugin())
+    templates = plugins.prompt_templates()
+    assert templates["seed_edit"] == "Edit {shape} as asked: {request}"
+    assert templates["type_hints"] == "hints for {shape}"

@@ -117,7 +117,26 @@ def cmd_demo(args: argparse.Namespace) -> int:
     for rid, state in states.items():
         if state != "kept":
             print(f"  broken: {rid}")
+    _demo_propagation(shape, args.backend)
     return 0
+
+
+def _demo_propagation(shape, backend: str | None) -> None:
+    """The same edit found by edit propagation from the seed alone (when a solver is installed)."""
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.plugins import solvers
+    from parsel_core.program import Program
+    from parsel_core.report import check_program
+
+    if "aep" not in solvers():
+        return
+    seed = "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)"
+    result = solvers()["aep"].run(SolveRequest(shape, Program.from_text(seed), options={"backend": backend}))
+    counts = check_program(shape, result.program).counts()
+    print(f"\nedit propagation (aep) from the seed alone: {seed}")
+    print("  " + result.program.to_text().strip().replace("\n", "\n  "))
+    print(f"  relations: {counts['kept']} kept, {counts['broken']} broken; "
+          f"{result.stats['candidates_screened']} candidates screened in {result.stats['time_s']['total']:.2f} s")
 
 
 DEMO_PROGRAM = """\

@@ -42,7 +42,7 @@ from parsel_aep.transfer import transfer
 from parsel_core.errors import ParselError, UnknownPartError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
-from parsel_core.ops import EditOp, KeepFixed
+from parsel_core.ops import EditOp, KeepFixed, Translate
 from parsel_core.plugins import get_cas_backend
 from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
 from parsel_core.relations import Relation
@@ -317,8 +317,13 @@ class Propagation:
         residual = symbolic_residual(kept, {**symbolic, **rest})
         columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
                                                                             constraints) if r.id not in broken])
+        op = screened.op
         if screened.kind == "affine":
             expr = affine_amount(self.backend, screened.a[columns], residual)
+            if isinstance(op, Translate) and op.feature is None and screened.f[-1] < 0:
+                # a move to the left reads better as dir=(-1, 0, 0), amount=+...
+                op = dataclasses.replace(op, dir=tuple(-c + 0.0 for c in op.dir))
+                expr = self.backend.expand(-expr)
         else:
             expr = rotation_amount(self.backend, screened.a[columns], self._offset(screened, columns), residual)
         text = amount_text(self.backend, expr)
@@ -327,10 +332,12 @@ class Propagation:
             text = simpler_equivalent(text, known, self.parameter.name, self.xs)
         state.stats["time_s"]["derive"] += time.perf_counter() - clock
         values = evaluate_amount(text, self.parameter.name, self.xs)
+        if op is not screened.op:
+            values = -values
         if not np.allclose(values, screened.f, atol=1e-6 * max(1.0, float(np.abs(screened.f).max()))):
             if screened.kind == "affine" and not broken:
                 return None
-        return dataclasses.replace(screened.op, amount=text)
+        return dataclasses.replace(op, amount=text)
 
     def _slices(self, constraints, rest):
         out, start = [], 0

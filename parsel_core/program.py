@@ -233,44 +233,77 @@ class Program:
 @dataclass(frozen=True)
 class Evaluation:
     """Corners after a program: ``parts`` (..., 8, 3) for every part and virtual parent,
-    ``instances`` (n, 8, 3) for each group whose layout a group op changed."""
+    ``instances`` (n, 8, 3) for each group whose layout a group op changed (scalar values).
+
+    Members of a laid-out group take their instance's corners, so relations are checked on
+    the layout; instances past the old count exist only in ``instances``."""
 
     parts: dict[str, np.ndarray]
     instances: dict[str, np.ndarray] = field(default_factory=dict)
+    #: Members of a group whose count dropped below their index (their corners are NaN).
+    removed: frozenset[str] = frozenset()
 
 
 NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos)
 
 
+def top_down_groups(program: Program) -> set[str]:
+    """Groups the program lays out top-down: ops on their virtual parent move the anchors only."""
+    return {op.operand for op in program.ops if isinstance(op, GroupOp) and op.mode == "top_down"}
+
+
+def laid_out_groups(program: Program) -> set[str]:
+    """Groups whose instances a group op re-lays out."""
+    return {op.operand for op in program.ops if isinstance(op, GroupOp)}
+
+
 def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
                     math_ns: Any) -> dict[str, Any]:
     """Run the part ops in order. An op on a virtual parent moves the parent and, with the
-    same point map, every member (affine ops map contained boxes exactly)."""
+    same point map, every member (affine ops map contained boxes exactly) — unless the group
+    is laid out top-down, where the parent only carries the anchors of the layout."""
+    anchors_only = top_down_groups(program)
     for op, amount in zip(program.ops, amounts):
         if op.acts_on != "part":
             continue
         targets = [op.operand]
-        if op.operand in shape.virtual_parents:
+        if op.operand in shape.virtual_parents and op.operand not in anchors_only:
             targets += list(shape.relations[op.operand].members)
         for target in targets:
             corners[target] = op.apply(corners[target], amount, math_ns)
     return corners
 
 
-def _group_layouts(program: Program, shape: ShapeGraph, corners: Mapping[str, np.ndarray],
-                   amounts: Sequence[float]) -> dict[str, np.ndarray]:
-    per_group: dict[str, list[tuple[GroupOp, float]]] = {}
+def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray], amounts: Sequence[Any],
+             batch: tuple[int, ...]) -> tuple[dict[str, np.ndarray], frozenset[str]]:
+    """Apply group layouts: member j takes instance j's corners; members past the new count
+    are *removed* (their corners become NaN). Returns scalar-evaluation instances too."""
+    per_group: dict[str, list[tuple[GroupOp, Any]]] = {}
     for op, amount in zip(program.ops, amounts):
         if isinstance(op, GroupOp):
-            per_group.setdefault(op.operand, []).append((op, float(amount)))
-    instances = {}
+            per_group.setdefault(op.operand, []).append((op, amount))
+    instances: dict[str, np.ndarray] = {}
+    removed: set[str] = set()
+    rest = shape.rest_corners()
     for group_id, ops in per_group.items():
         relation = shape.relations[group_id]
-        rest = shape.rest_corners()
-        instances[group_id] = group_instances(
-            relation, rest[group_id], [rest[m] for m in relation.members],
-            corners[group_id], [corners[m] for m in relation.members], ops)
-    return instances
+        members = relation.members
+        for m in members:
+            corners[m] = np.array(np.broadcast_to(corners[m], batch + (8, 3)), dtype=float)
+        for index in np.ndindex(*batch) if batch else [()]:
+            sample_ops = [(op, float(np.asarray(amount)[index] if batch else amount)) for op, amount in ops]
+            laid = group_instances(relation, rest[group_id], [rest[m] for m in members],
+                                   np.asarray(corners[group_id])[index],
+                                   [corners[m][index] for m in members], sample_ops)
+            for j, m in enumerate(members):
+                if j < len(laid):
+                    corners[m][index] = laid[j]
+                else:
+                    corners[m][index] = np.nan
+                    removed.add(m)
+            if not batch:
+                instances[group_id] = laid
+    return instances, frozenset(removed)
 
 
 def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | None = None) -> Evaluation:
@@ -291,8 +324,9 @@ def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | No
         amounts.append(amount[..., None, None] if batch else float(amount))
     corners = {pid: np.broadcast_to(c, batch + (8, 3)).copy() for pid, c in shape.rest_corners().items()}
     corners = _apply_part_ops(program, shape, corners, amounts, NUMPY_MATH)
-    instances = _group_layouts(program, shape, corners, amounts) if not batch else {}
-    return Evaluation(corners, instances)
+    group_amounts = [a[..., 0, 0] if batch else a for a in amounts]
+    instances, removed = _lay_out(program, shape, corners, group_amounts, batch)
+    return Evaluation(corners, instances, removed)
 
 
 def symbolic_amounts(program: Program, backend: CASBackend) -> list[Any]:
@@ -349,8 +383,9 @@ class CompiledProgram:
     def __call__(self, values: Mapping[str, Any] | None = None) -> Evaluation:
         values = self.program.values(values)
         batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
-        corners = {pid: np.broadcast_to(c, batch + (8, 3)) for pid, c in self.rest.items()}
+        corners: dict[str, np.ndarray] = {pid: np.broadcast_to(c, batch + (8, 3)) for pid, c in self.rest.items()}
         instances: dict[str, np.ndarray] = {}
+        removed: frozenset[str] = frozenset()
         if self._function is not None:
             args = [np.broadcast_to(np.asarray(values[n], dtype=float), batch) for n in self.program.parameter_names]
             out = np.asarray(self._function(*args), dtype=float)
@@ -358,16 +393,14 @@ class CompiledProgram:
             flat = np.moveaxis(out[: self._n_corner_values], 0, -1)
             for i, pid in enumerate(self.edited):
                 corners[pid] = flat[..., i * 24:(i + 1) * 24].reshape(batch + (8, 3))
-            if self._group_ops and not batch:
-                amounts = [None] * len(self.program.ops)
-                group_values = out[self._n_corner_values:]
-                j = 0
+            if self._group_ops:
+                amounts: list[Any] = [None] * len(self.program.ops)
+                group_values = iter(out[self._n_corner_values:])
                 for i, op in enumerate(self.program.ops):
                     if isinstance(op, GroupOp):
-                        amounts[i] = float(group_values[j])
-                        j += 1
-                instances = _group_layouts(self.program, self.shape, corners, amounts)
-        return Evaluation(dict(corners), instances)
+                        amounts[i] = next(group_values)
+                instances, removed = _lay_out(self.program, self.shape, corners, amounts, batch)
+        return Evaluation(dict(corners), instances, removed)
 
 
 def compile_program(program: Program, shape: ShapeGraph, backend: CASBackend) -> CompiledProgram:

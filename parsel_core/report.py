@@ -14,8 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from parsel_core.cage import inverse_trilinear
 from parsel_core.graph import ShapeGraph
-from parsel_core.program import Program, evaluate
+from parsel_core.hexahedron import CORNER_BITS, Hexahedron
+from parsel_core.program import Program, evaluate, laid_out_groups
+from parsel_core.relations import Attachment, Relation
 
 #: Default constraint tolerance as a fraction of the shape's size.
 RELATIVE_TOLERANCE = 1e-4
@@ -67,9 +70,58 @@ class RelationReport:
                 "relations": [r.to_dict() for r in self.relations], **self.extra}
 
 
-def relation_errors(shape: ShapeGraph, corners: Mapping[str, np.ndarray]) -> dict[str, float]:
+def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str) -> np.ndarray:
+    """How far a laid-out group member's contact slid *off* the other part, per sample.
+
+    When a group's count or spacing changes, its instances sit at new places along the
+    part they rest on (boards along a side panel, slats along a rail), so the contact
+    cannot stay at fixed cage coordinates of that part. It must stay on the same face:
+    the contact point keeps the other part's cage coordinates that were on its boundary
+    (0 or 1) and stays within [0, 1] in the others. Errors are in world units.
+    """
+    a, b = relation.members
+    own_weights, other_weights = (relation.weights_a, relation.weights_b) if member == a else (
+        relation.weights_b, relation.weights_a)
+    other = b if member == a else a
+    own = np.asarray(corners[member], dtype=float)
+    target = np.asarray(corners[other], dtype=float)
+    rest_uvw = np.asarray(other_weights) @ CORNER_BITS                                  # (k, 3)
+    on_boundary = (np.abs(rest_uvw) < 1e-9) | (np.abs(rest_uvw - 1) < 1e-9)
+    batch = own.shape[:-2]
+    errors = np.zeros(batch)
+    for index in np.ndindex(*batch) if batch else [()]:
+        if np.isnan(own[index]).any():
+            errors[index] = 0.0  # a removed instance has no contact to keep
+            continue
+        points = np.asarray(own_weights) @ own[index]
+        uvw = inverse_trilinear(target[index], points)
+        extents = Hexahedron(target[index]).extents
+        drift = np.where(on_boundary, np.abs(uvw - rest_uvw), np.maximum(0, -uvw) + np.maximum(0, uvw - 1))
+        errors[index] = float((drift * extents).max())
+    return errors
+
+
+def relation_error(relation: Relation, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()) -> float:
+    """Largest constraint error over the samples; attachments of laid-out members may slide."""
+    sliding = set(sliding)
+    if isinstance(relation, Attachment):
+        members = [m for m in relation.members if m in sliding]
+        if members:
+            return float(max(np.max(sliding_error(relation, corners, m)) for m in members))
+    errors = np.asarray(relation.error(corners), dtype=float)
+    errors = errors[~np.isnan(errors)]  # removed members (NaN corners) are not checked
+    return float(errors.max()) if errors.size else 0.0
+
+
+def relation_errors(shape: ShapeGraph, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()
+                    ) -> dict[str, float]:
     """Largest constraint error of each relation over the sampled corners."""
-    return {rid: float(np.max(r.error(corners))) for rid, r in shape.relations.items()}
+    return {rid: relation_error(r, corners, sliding) for rid, r in shape.relations.items()}
+
+
+def sliding_members(shape: ShapeGraph, program: Program) -> set[str]:
+    """Members of the groups whose layout the program changes."""
+    return {m for g in laid_out_groups(program) for m in shape.relations[g].members}
 
 
 def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
@@ -81,7 +133,7 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
     tolerance = tolerance_for(shape) if tolerance is None else tolerance
     corners = evaluate(program, shape, sample_values(program, samples)).parts
     states = []
-    for rid, error in relation_errors(shape, corners).items():
+    for rid, error in relation_errors(shape, corners, sliding_members(shape, program)).items():
         relation = shape.relations[rid]
         state = "kept" if error < tolerance else "broken_on_purpose" if rid in breaks else "broken"
         states.append(RelationState(rid, relation.kind, relation.members, state, error))

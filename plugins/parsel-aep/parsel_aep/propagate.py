@@ -42,11 +42,11 @@ from parsel_aep.transfer import transfer
 from parsel_core.errors import ParselError, UnknownPartError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
-from parsel_core.ops import EditOp, KeepFixed, Translate
+from parsel_core.ops import ChangeCount, EditOp, KeepFixed, Scale1D, Translate
 from parsel_core.plugins import get_cas_backend
 from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
-from parsel_core.relations import Relation
-from parsel_core.report import check_program, tolerance_for
+from parsel_core.relations import Relation, TranslationSymmetry
+from parsel_core.report import check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
 
@@ -127,8 +127,9 @@ class Propagation:
         return evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
 
     def broken(self, state: _State, corners: Mapping[str, np.ndarray]) -> list[Relation]:
+        sliding = sliding_members(self.shape, self.program(state.ops))
         return [r for r in self.relations
-                if r.id not in state.rejected and float(np.max(r.error(corners))) >= self.tolerance]
+                if r.id not in state.rejected and relation_error(r, corners, sliding) >= self.tolerance]
 
     # -- the loop ------------------------------------------------------------------
 
@@ -225,7 +226,9 @@ class Propagation:
         choice = self.search(state, operand, moving, constraints, corners) if constraints else None
         if choice is not None:
             op, broken = choice
-            if op is not None:  # a breaking-edit may be to leave the part where it is
+            if isinstance(op, list):  # a group layout: parent scaling plus change_count
+                state.ops.extend(op)
+            elif op is not None:  # a breaking-edit may be to leave the part where it is
                 state.ops.append(op)
             state.rejected.update(broken)
         else:
@@ -235,7 +238,7 @@ class Propagation:
         state.decided.add(operand)
 
     def search(self, state: _State, operand: str, moving: tuple[str, ...], constraints: list[Relation],
-               corners: Mapping[str, np.ndarray]) -> tuple[EditOp | None, tuple[str, ...]] | None:
+               corners: Mapping[str, np.ndarray]) -> tuple[EditOp | list[EditOp] | None, tuple[str, ...]] | None:
         """The chosen edit and the constraints it leaves broken; ``None`` when nothing helps."""
         hint = self.hints.get(operand) or self.hints.get(moving[0])
         hexahedron = self.shape.part(operand).hexahedron
@@ -253,6 +256,13 @@ class Propagation:
             found = self.screen_and_pick(state, own + extra, rest, others, constraints, breaking=True)
             if found is not None:
                 state.stats["breaking_edits"] += 1
+        rigid = found is not None and not found[1] and found[0].op.name in ("translate", "rotate") \
+            and found[0].op.feature is None
+        if operand in self.shape.virtual_parents and not rigid:
+            layout = self.layout_edit(state, operand, constraints, corners)
+            if layout is not None:
+                state.stats["layout_edits"] = state.stats.get("layout_edits", 0) + 1
+                return layout, ()
         if found is None:
             return None
         screened, broken = found
@@ -260,6 +270,46 @@ class Propagation:
             return None, broken
         op = self.closed_form(state, screened, rest, constraints, broken)
         return (op, broken) if op is not None else None
+
+    def layout_edit(self, state: _State, group: str, constraints: list[Relation],
+                    corners: Mapping[str, np.ndarray]) -> list[EditOp] | None:
+        """Re-lay out a translation group instead of deforming it (reference section 3, top-down).
+
+        The group's virtual parent is scaled along the step so that the first and last
+        instances follow what they are attached to, and ``change_count`` keeps the
+        spacing near its rest value: stretching a shelf adds boards rather than
+        thickening them. Accepted only if every member's relations then hold, the
+        inner instances sliding along the parts they rest on.
+        """
+        relation = self.shape.relations[group]
+        if not isinstance(relation, TranslationSymmetry) or len(relation.members) < 2:
+            return None
+        members = relation.members
+        anchors = (members[0], members[-1])
+        inner = set(members) - set(anchors)
+        anchor_constraints = [r for r in constraints if set(r.members) & set(anchors) and not set(r.members) & inner]
+        step = np.asarray(relation.step, dtype=float)
+        if not anchor_constraints or np.linalg.norm(step) < 1e-12:
+            return None
+        direction = step / np.linalg.norm(step)
+        origins = list(self.shape.part(group).hexahedron.feature_points)
+        origins += [np.asarray(op.origin) for op in state.ops if hasattr(op, "origin") and op.acts_on == "part"]
+        unique: dict[float, np.ndarray] = {}
+        for origin in origins:
+            unique.setdefault(round(float(origin @ direction), 7), origin)
+        candidates = [AnchorScale(group, tuple(map(float, o)), tuple(map(float, direction))) for o in unique.values()]
+        rest = {m: self.rest[m] for m in anchors}
+        others = {m: corners[m] for r in anchor_constraints for m in r.members if m not in rest}
+        results = screen(candidates, rest, others, anchor_constraints, self.tolerance)
+        sliding = set(members)
+        for screened in (s for s in results if not s.broken and np.abs(s.f).max() > 1e-12):
+            text = self.amount_text(state, screened, rest, anchor_constraints, ())
+            scale = Scale1D(group, text, origin=screened.op.origin, dir=screened.op.dir)
+            count = ChangeCount(group, f"{len(members) - 1}*({text})", mode="top_down")
+            trial = self.corners(state.ops + [scale, count])
+            if all(relation_error(r, trial, sliding) < self.tolerance for r in constraints):
+                return [scale, count]
+        return None
 
     def neighbour_candidates(self, state: _State, operand: str, moving: tuple[str, ...], hexahedron,
                              hint: str | None) -> list[EditOp]:
@@ -308,6 +358,16 @@ class Propagation:
         scored.sort(key=lambda t: t[:4])
         return scored[0][-1] if scored else None
 
+    def amount_text(self, state: _State, screened: Screened, rest, constraints, broken) -> str:
+        """The screened amount's closed form, derived with the CAS (affine candidates)."""
+        kept = [r for r in constraints if r.id not in broken]
+        others = sorted({m for r in kept for m in r.members if m not in rest})
+        symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
+        residual = symbolic_residual(kept, {**symbolic, **rest})
+        columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
+                                                                            constraints) if r.id not in broken])
+        return amount_text(self.backend, affine_amount(self.backend, screened.a[columns], residual))
+
     def closed_form(self, state: _State, screened: Screened, rest, constraints, broken) -> EditOp | None:
         """Derive the winner's amount with the CAS and check it against the screened values."""
         clock = time.perf_counter()
@@ -351,6 +411,27 @@ class Propagation:
     @staticmethod
     def _offset(screened: Screened, columns) -> np.ndarray:
         return screened.offset[columns]
+
+
+class AnchorScale:
+    """Screening stand-in for "scale the virtual parent, lay the group out top-down".
+
+    Under that layout an anchor member keeps its shape and moves with its centre:
+    ``c -> o + (c - o) + f ((c - o) . n) n``, a translation affine in ``f``.
+    """
+
+    name = "scale_1d"
+    feature = None
+    acts_on = "part"
+
+    def __init__(self, operand: str, origin, direction) -> None:
+        self.operand, self.origin, self.dir = operand, origin, direction
+
+    def apply(self, corners: np.ndarray, amount, math) -> np.ndarray:
+        n = np.asarray(self.dir)
+        centre = corners.mean(axis=-2, keepdims=True)
+        along = (centre - np.asarray(self.origin)) @ n
+        return corners + along[..., None] * n * amount
 
 
 def propagate(request: SolveRequest) -> SolveResult:

@@ -38,7 +38,10 @@ def test_widen_table_top_moves_legs_apart_mirrored_and_keeps_everything(parsel_b
     assert np.allclose(corners["leg_bl"].mean(axis=0), (-0.45 * 1.5, 0.35, -0.25))
     (rail,) = ops_on(program, "rail_back")
     assert rail.name == "scale_1d"
-    assert ops_on(program, "slat_row"), "the slat row is edited through its virtual parent"
+    # the slat row is laid out again through its virtual parent: more slats, same width
+    assert [op.name for op in ops_on(program, "slat_row")] == ["scale_1d", "change_count"]
+    slats = evaluate(program, shape, {"x": 1.0}).instances["slat_row"]
+    assert len(slats) == 7 and np.allclose(np.ptp(slats[:, :, 0], axis=1), 0.06)
 
 
 def test_raise_table_top_lengthens_legs_instead_of_moving_them():
@@ -169,3 +172,36 @@ def test_edit_bad_input_is_one_line_exit_2_and_no_outdir(tmp_path, capsys, argv,
     assert err.count("\n") == 1 and fragment in err, err
     assert not out.exists()
     assert [p.name for p in tmp_path.iterdir()] == []
+
+
+def shelf() -> ShapeGraph:
+    from parsel_core.relations import TranslationSymmetry
+
+    sides = [Part("side_l", "side", box((-0.4, 0.0, -0.15), (-0.38, 1.6, 0.15))),
+             Part("side_r", "side", box((0.38, 0.0, -0.15), (0.4, 1.6, 0.15)))]
+    boards = [Part(f"board_{j}", "board", box((-0.38, 0.05 + 0.383 * j, -0.14), (0.38, 0.068 + 0.383 * j, 0.14)))
+              for j in range(5)]
+    relations = [reflection("mirror_sides", sides[0], sides[1], (0, 0, 0), (1, 0, 0)),
+                 TranslationSymmetry("boards", tuple(b.id for b in boards), step=(0.0, 0.383, 0.0),
+                                     correspondence=tuple(tuple(range(8)) for _ in boards)),
+                 ground("ground_l", sides[0]), ground("ground_r", sides[1])]
+    relations += [attachment(f"{b.id}_{s.id}", b, s) for b in boards for s in sides]
+    return ShapeGraph(sides + boards, relations, name="shelf")
+
+
+def test_stretching_a_shelf_adds_boards_with_change_count():
+    shape = shelf()
+    result = solve(shape, "scale_1d(side_l, origin=(-0.39, 0, 0), dir=(0, 1, 0), amount=x)")
+    names = [op.name for op in ops_on(result.program, "boards")]
+    assert names == ["scale_1d", "change_count"]
+    assert result.rejected == []
+    report = check_program(shape, result.program)
+    assert report.counts()["broken"] == 0
+    low, high = evaluate(result.program, shape, {"x": 0.0}), evaluate(result.program, shape, {"x": 1.0})
+    assert len(low.instances["boards"]) == 5 and len(high.instances["boards"]) == 9
+    spacing = np.diff(high.instances["boards"].mean(axis=1)[:, 1])
+    assert np.allclose(spacing, spacing[0]) and abs(spacing[0] - 0.383) < 0.383 / 8
+    thickness = np.ptp(high.instances["boards"][0][:, 1])
+    assert thickness == pytest.approx(0.018)  # boards keep their shape
+    top = high.instances["boards"][-1].mean(axis=0)[1]
+    assert top == pytest.approx((0.05 + 0.383 * 4 + 0.009) * 2)  # the last board follows the stretched sides

@@ -1,0 +1,334 @@
+"""A verbal description of a shape for prompts, and its inverse for rule-based readers.
+
+Language models see parts and relations in words (paper 6.2.1): each part's id, label,
+where it sits among parts of the same label, its size and centre; each relation as a
+sentence. The text follows a fixed line grammar so that :func:`read_description` can
+turn it back into a :class:`ShapeSummary`: the offline provider reads exactly what a
+hosted model reads, and nothing else.
+
+Conventions (the ones the prompts state): +x is right, +y is up, +z is front, so the
+front of a chair faces +z and its left side is at -x as seen from the front.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from parsel_core.errors import ParselError
+from parsel_core.graph import GROUP_KINDS, ShapeGraph
+from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry, RotationSymmetry, TranslationSymmetry
+
+AXIS_NAMES = ("x", "y", "z")
+#: Words for the low and high side of each world axis.
+SIDE_WORDS = (("left", "right"), ("bottom", "top"), ("back", "front"))
+#: An axis along which centres spread less than this fraction of the shape's size is flat.
+SPREAD_FRACTION = 0.02
+_NUMBER = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
+
+
+def _fmt(value: float) -> str:
+    text = f"{float(value):.3f}"
+    return "0.000" if text == "-0.000" else text
+
+
+def _vector_text(vector: Sequence[float]) -> str:
+    return "(" + ", ".join(_fmt(v) for v in vector) + ")"
+
+
+def direction_word(vector: Sequence[float]) -> str:
+    """``+x`` / ``-z`` for an axis-aligned direction, else the rounded vector."""
+    v = np.asarray(vector, dtype=float)
+    norm = float(np.linalg.norm(v))
+    if norm < 1e-12:
+        return "(0, 0, 0)"
+    v = v / norm
+    axis = int(np.abs(v).argmax())
+    if abs(abs(v[axis]) - 1.0) < 1e-6:
+        return ("+" if v[axis] > 0 else "-") + AXIS_NAMES[axis]
+    return _vector_text(v)
+
+
+def _rank_words(axis: int, count: int) -> tuple[str, ...]:
+    low, high = SIDE_WORDS[axis]
+    return {
+        2: (low, high),
+        3: (low, "center", high),
+        4: (low, f"{low}-center", f"{high}-center", high),
+        5: (low, f"{low}-center", "center", f"{high}-center", high),
+    }[count]
+
+
+def position_words(shape: ShapeGraph) -> dict[str, str]:
+    """Where each part sits among the parts that share its label (empty for a lone part).
+
+    Parts in a line get rank words along it (``left``, ``center``, ``right``; more than
+    five get ``3 of 8 along x``); other arrangements get the side of the group's centre
+    along each axis they spread over, in y, z, x order (``front-left``).
+    """
+    by_label: dict[str, list[str]] = defaultdict(list)
+    for pid, part in shape.parts.items():
+        by_label[part.label].append(pid)
+    threshold = SPREAD_FRACTION * max(shape.size, 1e-12)
+    words: dict[str, str] = {pid: "" for pid in shape.parts}
+    for ids in by_label.values():
+        if len(ids) < 2:
+            continue
+        centres = np.array([shape.parts[i].hexahedron.center for i in ids])
+        offsets = centres - centres.mean(axis=0)
+        axes = [a for a in range(3) if np.ptp(offsets[:, a]) > threshold]
+        if not axes:
+            continue
+        if len(axes) == 1:
+            axis = axes[0]
+            order = sorted(range(len(ids)), key=lambda i: (offsets[i, axis], ids[i]))
+            for rank, i in enumerate(order):
+                if len(ids) <= 5:
+                    words[ids[i]] = _rank_words(axis, len(ids))[rank]
+                else:
+                    words[ids[i]] = f"{rank + 1} of {len(ids)} from the {SIDE_WORDS[axis][0]}"
+            continue
+        for i, pid in enumerate(ids):
+            found = []
+            for axis in sorted(axes, key=lambda a: (1, 2, 0).index(a)):
+                reach = float(np.abs(offsets[:, axis]).max())
+                if abs(offsets[i, axis]) > 0.25 * reach:
+                    found.append(SIDE_WORDS[axis][int(offsets[i, axis] > 0)])
+            words[pid] = "-".join(found) or "center"
+    return words
+
+
+def relation_sentence(relation) -> str:
+    """One relation in words (the grammar :func:`read_description` parses)."""
+    members = relation.members
+    if isinstance(relation, ReflectionSymmetry):
+        normal = np.asarray(relation.normal, dtype=float)
+        axis = int(np.abs(normal).argmax())
+        if abs(abs(normal[axis]) - 1.0) < 1e-6:
+            plane = f"the plane {AXIS_NAMES[axis]} = {_fmt(relation.origin[axis])}"
+        else:
+            plane = f"the plane through {_vector_text(relation.origin)} with normal {_vector_text(normal)}"
+        return f"reflection symmetry: {members[0]} and {members[1]} mirror each other across {plane}"
+    if isinstance(relation, TranslationSymmetry):
+        step = np.asarray(relation.step, dtype=float)
+        return (f"translation symmetry: {', '.join(members)} repeat in a row, {len(members)} copies "
+                f"{_fmt(np.linalg.norm(step))} apart along {direction_word(step)}")
+    if isinstance(relation, RotationSymmetry):
+        return (f"rotation symmetry: {', '.join(members)} repeat around the axis {direction_word(relation.axis)} "
+                f"through {_vector_text(relation.center)}, {len(members)} copies "
+                f"{np.degrees(relation.angle):.1f} degrees apart")
+    if isinstance(relation, Attachment):
+        return f"attachment ({relation.contact} contact): {members[0]} is attached to {members[1]}"
+    if isinstance(relation, GroundContact):
+        return f"ground contact: {members[0]} stands on the ground"
+    return f"{relation.kind}: {', '.join(members)} are related"
+
+
+def describe_shape(shape: ShapeGraph) -> str:
+    """The shape in words for a prompt: parts (id, label, position, size, centre), then relations.
+
+    Pure: the same shape always gives the same text, so prompts (and the response cache
+    keyed by them) are stable.
+    """
+    corners = np.concatenate([p.hexahedron.corners for p in shape.parts.values()])
+    extent = corners.max(axis=0) - corners.min(axis=0)
+    where = position_words(shape)
+    lines = [
+        f'<shape name="{shape.name}" parts="{len(shape.parts)}" relations="{len(shape.relations)}">',
+        "Axes: +x is right, +y is up, +z is front (the left side is at -x as seen from the front).",
+        f"Overall size: {_fmt(extent[0])} wide (x), {_fmt(extent[1])} tall (y), {_fmt(extent[2])} deep (z).",
+        "Parts (id: label, position among parts of the same label; size along x, y, z; centre):",
+    ]
+    for pid, part in shape.parts.items():
+        c = part.hexahedron.corners
+        size = c.max(axis=0) - c.min(axis=0)
+        lines.append(f"- {pid}: {part.label}, {where[pid] or 'single'}; size {_fmt(size[0])} x {_fmt(size[1])} x "
+                     f"{_fmt(size[2])}; centre {_vector_text(part.hexahedron.center)}")
+    groups = [r for r in shape.relations.values() if r.kind in GROUP_KINDS]
+    if groups:
+        lines.append("Groups (a translation or rotation relation id also names its repeated parts as a whole):")
+        for relation in groups:
+            label = shape.parts[relation.members[0]].label
+            lines.append(f"- {relation.id}: the {len(relation.members)} {label} parts as one group")
+    lines.append("Relations:")
+    for relation in shape.relations.values():
+        lines.append(f"- {relation.id}: {relation_sentence(relation)}")
+    if not shape.relations:
+        lines.append("- (none)")
+    lines.append("</shape>")
+    return "\n".join(lines)
+
+
+def request_block(request: str) -> str:
+    """The edit request as it appears in prompts."""
+    text = " ".join(str(request).split())
+    return f"<request>{text}</request>"
+
+
+def relation_block(shape: ShapeGraph, relation_id: str) -> str:
+    """The relation a validity prompt asks about."""
+    relation = shape.relation(relation_id)
+    return f'<relation id="{relation.id}">{relation_sentence(relation)}</relation>'
+
+
+# -- reading the description back -------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PartSummary:
+    """A part as the description gives it: world box extents and centre."""
+
+    id: str
+    label: str
+    position: str
+    size: tuple[float, float, float]
+    centre: tuple[float, float, float]
+
+    @property
+    def lo(self) -> np.ndarray:
+        return np.asarray(self.centre) - np.asarray(self.size) / 2
+
+    @property
+    def hi(self) -> np.ndarray:
+        return np.asarray(self.centre) + np.asarray(self.size) / 2
+
+
+@dataclass(frozen=True)
+class RelationSummary:
+    """A relation as the description gives it: id, kind and members (plus what the words say)."""
+
+    id: str
+    kind: str
+    members: tuple[str, ...]
+    normal_axis: int | None = None
+    plane_offset: float | None = None
+    contact: str | None = None
+
+
+@dataclass
+class ShapeSummary:
+    """What a reader of the prompt knows about the shape."""
+
+    name: str
+    parts: dict[str, PartSummary] = field(default_factory=dict)
+    relations: dict[str, RelationSummary] = field(default_factory=dict)
+
+    @property
+    def lo(self) -> np.ndarray:
+        return np.min([p.lo for p in self.parts.values()], axis=0)
+
+    @property
+    def hi(self) -> np.ndarray:
+        return np.max([p.hi for p in self.parts.values()], axis=0)
+
+    @property
+    def centre(self) -> np.ndarray:
+        return (self.lo + self.hi) / 2
+
+    @property
+    def size(self) -> float:
+        return float(np.linalg.norm(self.hi - self.lo))
+
+    def groups(self) -> list[RelationSummary]:
+        return [r for r in self.relations.values() if r.kind in GROUP_KINDS]
+
+    def relations_of(self, part_id: str) -> list[RelationSummary]:
+        return [r for r in self.relations.values() if part_id in r.members]
+
+    def labels(self) -> dict[str, list[str]]:
+        out: dict[str, list[str]] = defaultdict(list)
+        for pid, part in self.parts.items():
+            out[part.label].append(pid)
+        return dict(out)
+
+
+_SHAPE_BLOCK = re.compile(r'<shape name="(?P<name>[^"]*)"[^>]*>\n(?P<body>.*?)\n</shape>', re.S)
+_PART_LINE = re.compile(
+    rf"^- (?P<id>.+?): (?P<label>.+), (?P<position>[^,;]+); size (?P<sx>{_NUMBER}) x (?P<sy>{_NUMBER}) x "
+    rf"(?P<sz>{_NUMBER}); centre \((?P<cx>{_NUMBER}), (?P<cy>{_NUMBER}), (?P<cz>{_NUMBER})\)$")
+_REFLECTION = re.compile(r"^reflection symmetry: (?P<a>.+) and (?P<b>.+) mirror each other across (?P<plane>.+)$")
+_AXIS_PLANE = re.compile(rf"^the plane (?P<axis>[xyz]) = (?P<offset>{_NUMBER})$")
+_TRANSLATION = re.compile(r"^translation symmetry: (?P<members>.+) repeat in a row, \d+ copies .*$")
+_ROTATION = re.compile(r"^rotation symmetry: (?P<members>.+) repeat around the axis .*$")
+_ATTACHMENT = re.compile(r"^attachment \((?P<contact>\w+) contact\): (?P<a>.+) is attached to (?P<b>.+)$")
+_GROUND = re.compile(r"^ground contact: (?P<a>.+) stands on the ground$")
+
+
+def _split_members(text: str, parts: Mapping[str, PartSummary]) -> tuple[str, ...]:
+    members = tuple(m.strip() for m in text.split(", "))
+    unknown = [m for m in members if m not in parts]
+    if unknown:
+        raise ParselError(f"shape description names unknown part(s) {', '.join(unknown)}")
+    return members
+
+
+def read_description(text: str) -> ShapeSummary:
+    """The last ``<shape>`` block of a prompt, read back into a :class:`ShapeSummary`.
+
+    Raises :class:`ParselError` when the text holds no description or a line does not
+    follow the grammar of :func:`describe_shape`.
+    """
+    blocks = list(_SHAPE_BLOCK.finditer(text))
+    if not blocks:
+        raise ParselError("the prompt holds no <shape> description")
+    block = blocks[-1]
+    summary = ShapeSummary(block["name"])
+    section = ""
+    for line in block["body"].splitlines():
+        if not line.startswith("- "):
+            section = line.split(" ", 1)[0].rstrip(":")
+            continue
+        if section == "Parts":
+            match = _PART_LINE.match(line)
+            if not match:
+                raise ParselError(f"shape description: cannot read part line {line!r}")
+            position = match["position"].strip()
+            summary.parts[match["id"]] = PartSummary(
+                match["id"], match["label"], "" if position == "single" else position,
+                (float(match["sx"]), float(match["sy"]), float(match["sz"])),
+                (float(match["cx"]), float(match["cy"]), float(match["cz"])))
+        elif section == "Relations":
+            if line == "- (none)":
+                continue
+            rid, _, sentence = line[2:].partition(": ")
+            summary.relations[rid] = _read_relation(rid, sentence, summary.parts)
+    return summary
+
+
+def _read_relation(rid: str, sentence: str, parts: Mapping[str, PartSummary]) -> RelationSummary:
+    if match := _REFLECTION.match(sentence):
+        plane = _AXIS_PLANE.match(match["plane"])
+        members = _split_members(f"{match['a']}, {match['b']}", parts)
+        if plane:
+            return RelationSummary(rid, "reflection", members, AXIS_NAMES.index(plane["axis"]),
+                                   float(plane["offset"]))
+        return RelationSummary(rid, "reflection", members)
+    if match := _TRANSLATION.match(sentence):
+        return RelationSummary(rid, "translation", _split_members(match["members"], parts))
+    if match := _ROTATION.match(sentence):
+        return RelationSummary(rid, "rotation", _split_members(match["members"], parts))
+    if match := _ATTACHMENT.match(sentence):
+        return RelationSummary(rid, "attachment", _split_members(f"{match['a']}, {match['b']}", parts),
+                               contact=match["contact"])
+    if match := _GROUND.match(sentence):
+        return RelationSummary(rid, "ground", _split_members(match["a"], parts))
+    kind, _, rest = sentence.partition(": ")
+    return RelationSummary(rid, kind, ())
+
+
+def read_request(text: str) -> str:
+    """The last ``<request>`` of a prompt."""
+    found = re.findall(r"<request>(.*?)</request>", text, re.S)
+    if not found:
+        raise ParselError("the prompt holds no <request>")
+    return found[-1].strip()
+
+
+def read_relation_id(text: str) -> str | None:
+    """The id of the last ``<relation id=...>`` of a prompt (validity prompts)."""
+    found = re.findall(r'<relation id="([^"]*)">', text)
+    return found[-1] if found else None

@@ -8,7 +8,7 @@ import numpy as np
 import symengine
 from symengine.lib.symengine_wrapper import solve as _solve
 
-from parsel_core.cas import CASBackend
+from parsel_core.cas import CASBackend, normalise_printed
 
 
 class SymengineBackend(CASBackend):
@@ -83,7 +83,7 @@ class SymengineBackend(CASBackend):
         return call
 
     def to_string(self, expr) -> str:
-        return str(expr)
+        return normalise_printed(str(expr))
 
     def to_float(self, expr) -> float:
         return float(symengine.sympify(expr).evalf())

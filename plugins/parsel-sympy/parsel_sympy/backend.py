@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 import sympy
 
-from parsel_core.cas import CASBackend
+from parsel_core.cas import CASBackend, normalise_printed
 
 
 class SympyBackend(CASBackend):
@@ -72,7 +72,7 @@ class SympyBackend(CASBackend):
         return call
 
     def to_string(self, expr) -> str:
-        return str(expr)
+        return normalise_printed(str(expr))
 
     def to_float(self, expr) -> float:
         return float(sympy.N(expr))

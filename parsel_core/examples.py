@@ -108,12 +108,12 @@ def tiny_table() -> ShapeGraph:
         TranslationSymmetry("slat_row", tuple(s.id for s in slats), step=(0.2, 0.0, 0.0),
                             correspondence=tuple(tuple(range(8)) for _ in slats)),
     ]
-    # Contacts sit off-centre on the larger part, so leg-top and rail-leg contacts have
-    # symmetry order 0 (point); a slat crossing a rail is symmetric about one shared
-    # plane (order 1: a line across the rail).
+    # Contact kinds follow the symmetry order (reference section 2): a leg's top sits
+    # off-centre on the table top (order 0: a point); a rail's end is centred on its leg
+    # in z, and a slat crosses a rail centred in x (order 1: a line).
     relations += [attachment(f"attach_top_{leg.id}", top, leg) for leg in legs]
     relations += [ground(f"ground_{leg.id}", leg) for leg in legs]
-    relations += [attachment(f"attach_{rail.id}_{leg.id}", rail, leg)
+    relations += [attachment(f"attach_{rail.id}_{leg.id}", rail, leg, "line", axis=2)
                   for rail, pair in ((rails[0], (bl, br)), (rails[1], (fl, fr))) for leg in pair]
     relations += [attachment(f"attach_{slat.id}_{rail.id}", slat, rail, "line", axis=2)
                   for slat in slats for rail in rails]

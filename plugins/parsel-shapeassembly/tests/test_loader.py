@@ -1,0 +1,71 @@
+"""ShapeAssembly files as parsel shapes: parts, labels, declared and detected relations, errors."""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from parsel_core.cli import main
+from parsel_core.errors import ParselError
+from parsel_core.loading import load_shape
+
+FIXTURES = Path(__file__).parent / "fixtures"
+
+
+@pytest.fixture
+def chair(tmp_path) -> Path:
+    """A corpus chair copied under a ``chair/`` folder, so the category labeller applies."""
+    source = next(p for p in sorted(FIXTURES.rglob("*.txt")) if "1277" in p.name)
+    target = tmp_path / "chair" / "1277.txt"
+    target.parent.mkdir()
+    shutil.copy(source, target)
+    return target
+
+
+def test_program_loads_as_labelled_boxes_with_declared_relations(chair):
+    shape = load_shape(str(chair), detect=False)
+    assert shape.name == "chair/1277" and len(shape.parts) == 11
+    labels = {pid: p.label for pid, p in shape.parts.items()}
+    assert labels["cube1"] == "seat"
+    assert {labels[f"Program_1/{c}"] for c in ("cube0", "cube1", "cube0_ref", "cube1_ref")} == {"leg"}
+    declared = shape.metadata["declared_relations"]
+    kinds = {d["kind"] for d in declared}
+    assert kinds == {"attachment", "reflection", "translation"}
+    legs = shape.part("Program_1/cube0").hexahedron
+    assert np.allclose(legs.extents, (0.099, 0.706, 0.094), atol=1e-6)
+    assert np.allclose(legs.local_axes, np.eye(3), atol=1e-6)  # the canonical axis convention
+
+
+def test_detected_relations_find_the_declared_leg_mirrors_and_back_row(chair):
+    shape = load_shape(str(chair))
+    pairs = {frozenset(r.members) for r in shape.relations.values() if r.kind == "reflection"}
+    assert frozenset({"Program_1/cube0", "Program_1/cube0_ref"}) in pairs
+    rows = [r for r in shape.relations.values() if r.kind == "translation"]
+    assert any(len(r.members) == 5 for r in rows)
+    grounded = {r.members[0] for r in shape.relations.values() if r.kind == "ground"}
+    assert {"Program_1/cube0", "Program_1/cube1", "Program_1/cube0_ref", "Program_1/cube1_ref"} <= grounded
+
+
+def test_labels_sidecar_overrides_and_names_unknown_parts(chair):
+    sidecar = chair.with_name("1277.labels.json")
+    sidecar.write_text(json.dumps({"cube1": "cushion"}))
+    assert load_shape(str(chair), detect=False).part("cube1").label == "cushion"
+    sidecar.write_text(json.dumps({"cube9": "cushion"}))
+    with pytest.raises(ParselError, match="unknown part.*cube9"):
+        load_shape(str(chair), detect=False)
+
+
+def test_malformed_program_names_the_line(tmp_path, capsys):
+    bad = tmp_path / "bad.txt"
+    bad.write_text("Assembly Program_0 {\n\tbbox = Cuboid(1, 1, 1, True)\n\tcube0 = Cuboid(0.5, 0.5)\n}\n")
+    assert main(["inspect", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bad.txt:3" in err
+
+
+def test_inspect_json_on_a_program(chair, capsys):
+    assert main(["inspect", str(chair), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert len(data["parts"]) == 11 and data["relations"]

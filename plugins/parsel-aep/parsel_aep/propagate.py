@@ -168,7 +168,9 @@ class Propagation:
             if not undecided:
                 state.rejected.update(r.id for r in broken)
                 break
-            target = min(undecided, key=lambda m: (-self.relation_count(m), m))
+            # Minimum entropy: the part with the most relations goes first; members of intact
+            # repeated groups go last, since a re-layout can adapt them to whatever frames them.
+            target = min(undecided, key=lambda m: (self.in_intact_group(m, state), -self.relation_count(m), m))
             self.edit_part(state, target, corners)
         else:
             raise RuntimeError("edit propagation did not terminate")
@@ -182,6 +184,10 @@ class Propagation:
         state.stats["time_s"]["total"] = time.perf_counter() - started
         state.stats["tau"] = float(tau)
         return SolveResult(program, sorted(state.rejected), state.stats)
+
+    def in_intact_group(self, part: str, state: _State) -> bool:
+        return any(g not in self.breaks and not set(self.shape.relations[g].members) & state.decided
+                   for g in self.shape.groups_of(part))
 
     def relation_count(self, part: str) -> int:
         return sum(part in r.members for r in self.relations)
@@ -269,6 +275,8 @@ class Propagation:
         if np.abs(screened.f).max() < 1e-12:
             return None, broken
         op = self.closed_form(state, screened, rest, constraints, broken)
+        if op is not None and op.amount == "0":  # round-off of a breaking-edit that stays put
+            return None, broken
         return (op, broken) if op is not None else None
 
     def layout_edit(self, state: _State, group: str, constraints: list[Relation],
@@ -302,9 +310,13 @@ class Propagation:
         others = {m: corners[m] for r in anchor_constraints for m in r.members if m not in rest}
         results = screen(candidates, rest, others, anchor_constraints, self.tolerance)
         sliding = set(members)
-        for screened in (s for s in results if not s.broken and np.abs(s.f).max() > 1e-12):
-            text = self.amount_text(state, screened, rest, anchor_constraints, ())
-            scale = Scale1D(group, text, origin=screened.op.origin, dir=screened.op.dir)
+        proposals = [(s.op.origin, self.amount_text(state, s, rest, anchor_constraints, ()))
+                     for s in results if not s.broken and np.abs(s.f).max() > 1e-12]
+        # A row framed by a scaled neighbour can also take that neighbour's scaling outright.
+        proposals += [(op.origin, op.amount) for op in state.ops
+                      if isinstance(op, Scale1D) and op.feature is None and abs(float(np.dot(op.dir, direction))) > 0.999]
+        for origin, text in proposals:
+            scale = Scale1D(group, text, origin=origin, dir=tuple(map(float, direction)))
             count = ChangeCount(group, f"{len(members) - 1}*({text})", mode="top_down")
             trial = self.corners(state.ops + [scale, count])
             if all(relation_error(r, trial, sliding) < self.tolerance for r in constraints):

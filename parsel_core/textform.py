@@ -100,7 +100,9 @@ def op_from_text(line: str, registry: Mapping[str, type[EditOp]], where: str = "
     try:
         tree = ast.parse(line.strip(), mode="eval").body
     except SyntaxError as exc:
-        raise ProgramFormatError(f"{where}: does not parse: {exc.msg}") from None
+        hint = " (quote part names that are not identifiers, e.g. 'leg.000')" if re.search(
+            r"[A-Za-z_]\w*\.\d", line) else ""
+        raise ProgramFormatError(f"{where}: does not parse: {exc.msg}{hint}") from None
     if not isinstance(tree, ast.Call) or not isinstance(tree.func, ast.Name):
         raise ProgramFormatError(f"{where}: expected an op call like scale_1d(part, ...)")
     name = tree.func.id

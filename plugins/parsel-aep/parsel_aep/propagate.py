@@ -168,9 +168,11 @@ class Propagation:
             if not undecided:
                 state.rejected.update(r.id for r in broken)
                 break
-            # Minimum entropy: the part with the most relations goes first; members of intact
-            # repeated groups go last, since a re-layout can adapt them to whatever frames them.
-            target = min(undecided, key=lambda m: (self.in_intact_group(m, state), -self.relation_count(m), m))
+            # Minimum entropy: the most constrained part goes first (most exact relations with
+            # decided parts or the ground, then most relations overall). An intact repeated
+            # group counts as one part with all its members' relations.
+            sliding = sliding_members(self.shape, self.program(state.ops))
+            target = min(undecided, key=lambda m: (-self.decided_count(m, state, sliding), -self.relation_count(m), m))
             self.edit_part(state, target, corners)
         else:
             raise RuntimeError("edit propagation did not terminate")
@@ -185,9 +187,13 @@ class Propagation:
         state.stats["tau"] = float(tau)
         return SolveResult(program, sorted(state.rejected), state.stats)
 
-    def in_intact_group(self, part: str, state: _State) -> bool:
-        return any(g not in self.breaks and not set(self.shape.relations[g].members) & state.decided
-                   for g in self.shape.groups_of(part))
+    def decided_count(self, part: str, state: _State, sliding: set[str]) -> int:
+        members = {part}
+        for group in self.shape.groups_of(part):
+            if group not in self.breaks and not set(self.shape.relations[group].members) & state.decided:
+                members = set(self.shape.relations[group].members)
+        return sum(bool(set(r.members) & members) and set(r.members) - members <= state.decided
+                   and not set(r.members) & sliding for r in self.relations)
 
     def relation_count(self, part: str) -> int:
         return sum(part in r.members for r in self.relations)
@@ -249,17 +255,23 @@ class Propagation:
         hint = self.hints.get(operand) or self.hints.get(moving[0])
         hexahedron = self.shape.part(operand).hexahedron
         rest = {m: self.rest[m] for m in moving}
-        others = {m: corners[m] for r in constraints for m in r.members if m not in rest}
+        # Contacts with laid-out group members may slide, so they cannot be screened as exact
+        # equations: the exact ones are screened, the sliding ones checked on the survivors.
+        sliding = sliding_members(self.shape, self.program(state.ops)) - set(moving)
+        exact = [r for r in constraints if not set(r.members) & sliding] or constraints
+        soft = [r for r in constraints if r not in exact]
+        others = {m: corners[m] for r in exact for m in r.members if m not in rest}
+        check = self.sliding_check(corners, rest, soft, sliding)
         own = own_candidates(operand, hexahedron, hint)
-        found = self.screen_and_pick(state, own, rest, others, constraints)
+        found = self.screen_and_pick(state, own, rest, others, exact, check=check)
         extra: list[EditOp] = []
         if found is None and self.options.nhbd:
             extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
-            found = self.screen_and_pick(state, extra, rest, others, constraints)
+            found = self.screen_and_pick(state, extra, rest, others, exact, check=check)
             if found is not None:
                 state.stats["nhbd_edits"] += 1
         if found is None and self.options.breaking:
-            found = self.screen_and_pick(state, own + extra, rest, others, constraints, breaking=True)
+            found = self.screen_and_pick(state, own + extra, rest, others, exact, breaking=True)
             if found is not None:
                 state.stats["breaking_edits"] += 1
         rigid = found is not None and not found[1] and found[0].op.name in ("translate", "rotate") \
@@ -274,7 +286,7 @@ class Propagation:
         screened, broken = found
         if np.abs(screened.f).max() < 1e-12:
             return None, broken
-        op = self.closed_form(state, screened, rest, constraints, broken)
+        op = self.closed_form(state, screened, rest, exact, broken)
         if op is not None and op.amount == "0":  # round-off of a breaking-edit that stays put
             return None, broken
         return (op, broken) if op is not None else None
@@ -330,8 +342,22 @@ class Propagation:
         boxes = [self.shape.part(n).hexahedron for n in neighbours]
         return neighbour_candidates(operand, hexahedron, ops, boxes, hint)
 
+    def sliding_check(self, corners, rest, soft: list[Relation], sliding: set[str]):
+        """A test that a screened candidate also keeps the sliding contacts ``soft``."""
+        if not soft:
+            return None
+
+        def keeps(screened: Screened) -> bool:
+            amounts = screened.f[:, None, None]
+            trial = dict(corners)
+            for pid, c in rest.items():
+                trial[pid] = screened.op.apply(c, amounts, np)
+            return all(relation_error(r, trial, sliding) < self.tolerance for r in soft)
+
+        return keeps
+
     def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
-                        breaking: bool = False) -> tuple[Screened, tuple[str, ...]] | None:
+                        breaking: bool = False, check=None) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
         results = screen(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
@@ -348,11 +374,14 @@ class Propagation:
             state.stats["candidates_valid"] += len(pool)
         if not pool:
             return None
-        best = self.rank(pool, rest)
-        return (best, best.broken) if best is not None else None
+        for best in self.rank(pool, rest):
+            if check is None or breaking or check(best):
+                return best, best.broken
+        return None
 
-    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened | None:
-        """Drop high-distortion edits, then most symmetry planes, least ARAP energy, simplest."""
+    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> list[Screened]:
+        """Best first: high-distortion edits dropped, then most symmetry planes, least ARAP
+        energy, simplest op, candidate order."""
         energy = np.zeros(len(pool))
         planes = np.zeros(len(pool))
         for corners in rest.values():
@@ -368,7 +397,7 @@ class Propagation:
             simplicity = SIMPLICITY.index(family) if family in SIMPLICITY else len(SIMPLICITY)
             scored.append((-p, round(float(e), 9), simplicity, s.index, s))
         scored.sort(key=lambda t: t[:4])
-        return scored[0][-1] if scored else None
+        return [t[-1] for t in scored]
 
     def amount_text(self, state: _State, screened: Screened, rest, constraints, broken) -> str:
         """The screened amount's closed form, derived with the CAS (affine candidates)."""

@@ -325,8 +325,8 @@ class Propagation:
         proposals = [(s.op.origin, self.amount_text(state, s, rest, anchor_constraints, ()))
                      for s in results if not s.broken and np.abs(s.f).max() > 1e-12]
         # A row framed by a scaled neighbour can also take that neighbour's scaling outright.
-        proposals += [(op.origin, op.amount) for op in state.ops
-                      if isinstance(op, Scale1D) and op.feature is None and abs(float(np.dot(op.dir, direction))) > 0.999]
+        proposals += [(op.origin, op.amount) for op in state.ops if isinstance(op, Scale1D) and op.feature is None
+                      and abs(float(np.dot(op.dir, direction))) > 0.999]
         for origin, text in proposals:
             scale = Scale1D(group, text, origin=origin, dir=tuple(map(float, direction)))
             count = ChangeCount(group, f"{len(members) - 1}*({text})", mode="top_down")

@@ -49,7 +49,10 @@ def test_raise_table_top_lengthens_legs(shapes):
         assert op.name == "scale_1d" and op.dir == (0.0, 1.0, 0.0) and op.origin[1] == 0.0
     corners = evaluate(program, table, {"x": 1.0}).parts["leg.000"]
     rest_top = table.part("leg.000").hexahedron.corners[:, 1].max()
-    assert corners[:, 1].min() == pytest.approx(0.0) and corners[:, 1].max() == pytest.approx(rest_top + 0.3)
+    # the foot stays on the floor; the top end follows the table top (the contact point sits
+    # 2.5 mm below the leg's end, inside the top, so the end itself rises a little more)
+    assert corners[:, 1].min() == pytest.approx(0.0)
+    assert rest_top + 0.3 <= corners[:, 1].max() < rest_top + 0.302
 
 
 DOOR = "rotate('door.000', origin=(-0.397, 0.49, 0.218), axis=(0, -1, 0), amount=x)"

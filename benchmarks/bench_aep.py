@@ -51,9 +51,9 @@ def seeds_for(shape) -> list[str]:
     largest = max(parts, key=lambda p: (float(np.prod(p.hexahedron.extents)), p.id))
     highest = max(parts, key=lambda p: (float(p.hexahedron.corners[:, 1].max()), p.id))
     other = parts[int(rng.integers(len(parts)))]
-    c = largest.hexahedron.center
-    bottom = other.hexahedron.corners[:, 1].min()
-    oc = other.hexahedron.center
+    c = [float(v) for v in largest.hexahedron.center]
+    bottom = float(other.hexahedron.corners[:, 1].min())
+    oc = [float(v) for v in other.hexahedron.center]
     return [
         f"scale_1d({quoted(largest.id)}, origin=({c[0]!r}, {c[1]!r}, {c[2]!r}), dir=(1, 0, 0), amount=x)",
         f"translate({quoted(highest.id)}, dir=(0, 1, 0), amount=0.2 * x)",

@@ -279,7 +279,7 @@ def write_outdir(outdir: str, files: dict[str, str]) -> None:
 
 
 def cmd_edit(args: argparse.Namespace) -> int:
-    """Expert mode (the paper's human solver): a seed edit, hints and breaks -> a program."""
+    """A request in words (language layer) or a seed edit (expert mode) -> a complete program."""
     import time
 
     from parsel_core.interfaces import SolveRequest
@@ -287,31 +287,51 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from parsel_core.plugins import get_cas_backend, get_named, solvers
     from parsel_core.report import check_program
 
-    if args.seed is None:
-        raise ParselError("parsel edit needs --seed \"<op>\" (natural-language requests need an LLM provider plugin)")
+    if args.seed is None and not args.request:
+        raise ParselError('parsel edit needs a request in words or --seed "<op>" (expert mode)')
     solver = get_named("solver", solvers(), args.solver)
     get_cas_backend(args.backend)  # fail early on an unknown backend
     started = time.perf_counter()
     shape = load_shape(args.shape)
     load_s = time.perf_counter() - started
-    seed = parse_seed(args.seed)
-    seed.validate(shape)
+    hints = _parse_hints(args.hint)
+    breaks = list(args.break_ or ())
+    metadata: dict = {"solver": solver.name, "shape": shape.name}
+    files: dict[str, str] = {}
+    inference = None
+    if args.seed is not None:
+        seed = parse_seed(args.seed)
+        seed.validate(shape)
+        metadata.update({"seed": args.seed})
+        if args.request:
+            metadata["request"] = args.request
+    else:
+        inference = _infer(shape, args, files)
+        seed = inference.seed
+        hints = {**inference.hints, **hints}
+        breaks = sorted(set(inference.breaks) | set(breaks))
+        metadata.update({"request": args.request, "provider": args.provider, "mode": args.mode})
+        if args.model:
+            metadata["model"] = args.model
+    metadata.update({"hints": dict(hints), "breaks": breaks})
     options = {"nhbd": not args.no_nhbd, "breaking": not args.no_breaking, "backend": args.backend}
     if args.tau is not None:
         options["tau"] = args.tau
-    request = SolveRequest(shape, seed, _parse_hints(args.hint), tuple(args.break_ or ()), options)
-    result = solver.run(request)
-    program = result.program
-    metadata = {"solver": solver.name, "shape": shape.name, "seed": args.seed, "hints": dict(request.hints),
-                "breaks": list(request.breaks)}
+    request = SolveRequest(shape, seed, hints, tuple(breaks), options)
+    if inference is not None and inference.program is not None:  # one-shot: the model wrote it all
+        program, rejected, stats = inference.program, [], {}
+        metadata["solver"] = "none (one-shot)"
+    else:
+        result = solver.run(request)
+        program, rejected, stats = result.program, result.rejected, result.stats
     program = type(program)(program.ops, program.parameters, metadata)
     report = check_program(shape, program, request.breaks)
-    report.extra.update({
-        "shape": shape.name, "solver": solver.name, "rejected": result.rejected,
-        "stats": {**result.stats, "load_s": load_s},
-    })
-    write_outdir(args.output, {"program.json": program.to_json(),
-                               "report.json": json.dumps(report.to_dict(), indent=1) + "\n"})
+    report.extra.update({"shape": shape.name, "solver": metadata["solver"], "rejected": rejected,
+                         "stats": {**stats, "load_s": load_s}})
+    if inference is not None:
+        report.extra["language"] = inference.summary()
+    files.update({"program.json": program.to_json(), "report.json": json.dumps(report.to_dict(), indent=1) + "\n"})
+    write_outdir(args.output, files)
     counts = report.counts()
     print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
           f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
@@ -319,6 +339,26 @@ def cmd_edit(args: argparse.Namespace) -> int:
         if state.state == "broken":
             print(f"  broken: {state.id} ({state.kind}: {', '.join(state.members)})")
     return 0
+
+
+def _records_jsonl(records) -> str:
+    return "".join(json.dumps(r, sort_keys=True) + "\n" for r in records)
+
+
+def _infer(shape, args: argparse.Namespace, files: dict[str, str]):
+    """Ask the language layer for seed, hints and breaks; keep every prompt and reply."""
+    from parsel_core.language import InferenceError, infer
+
+    options = {"api_base": args.api_base, "replay": args.replay, "cache_dir": args.cache}
+    try:
+        inference = infer(shape, args.request, provider=args.provider, model=args.model, mode=args.mode,
+                          samples=args.samples, options={k: v for k, v in options.items() if v is not None})
+    except InferenceError as exc:
+        # The record of what was asked and answered is the useful output of a failed inference.
+        write_outdir(args.output, {"record.jsonl": _records_jsonl(exc.record)})
+        raise
+    files["record.jsonl"] = _records_jsonl(inference.record)
+    return inference
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -417,6 +457,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hint", action="append", metavar="PART=TYPE", help="type hint: translate, rotate, scale or keep")
     p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID",
                    help="a relation the edit may break (repeatable)")
+    p.add_argument("--provider", default="offline", help="language-model provider: offline (default), litellm, "
+                   "replay or any installed")
+    p.add_argument("--model", help="model name for the provider (litellm: any model litellm supports)")
+    p.add_argument("--api-base", help="base URL of an OpenAI-compatible server (litellm)")
+    p.add_argument("--mode", default="full", choices=("full", "seed-only", "one-shot"),
+                   help="full: seed + hints + validity; seed-only; one-shot: the model writes the program")
+    p.add_argument("--samples", type=int, default=5, help="samples per prompt for majority voting (default 5)")
+    p.add_argument("--replay", metavar="FILE", help="recorded replies for the replay provider")
+    p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
     p.add_argument("--solver", default="aep", help="solver plugin (default: aep)")
     p.add_argument("--tau", type=float, help="parameter range [0, tau] (default: chosen automatically)")
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")

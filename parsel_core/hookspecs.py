@@ -114,7 +114,8 @@ def parsel_prompt_templates():
     """Prompt templates for the language layer, by name.
 
     Return a dict mapping a template name (``seed_edit``, ``type_hints``,
-    ``reflection_validity``, ``group_validity``, ``proxydural``, ``variations``) to the
+    ``reflection_validity``, ``group_validity``, ``one_shot``, ``proxydural``,
+    ``variations``) to the
     template's text or to a path of a text file. Later plugins override earlier ones,
     so a plugin can replace one prompt without copying the others.
     """

@@ -29,6 +29,8 @@ BUILTIN_PLUGINS = (
     "parsel_core.builtin.operators",
     "parsel_core.builtin.shapes",
     "parsel_core.builtin.exporters",
+    "parsel_core.language.templates",
+    "parsel_core.language.replay",
 )
 
 

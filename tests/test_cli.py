@@ -98,3 +98,31 @@ def test_inspect_table_json_and_png(capsys, tmp_path):
     assert data["groups"][0]["id"] == "slat_row"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     one_line_error(capsys, ["inspect", "tiny_table", "--png", str(tmp_path / "missing" / "x.png")], "does not exist")
+
+
+def test_edit_from_words_writes_program_report_and_record(tmp_path, capsys):
+    out = tmp_path / "wider"
+    assert main(["edit", "chair", "make the chair wider", "-o", str(out)]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["broken"] == 0 and report["language"]
+    program = json.loads((out / "program.json").read_text())
+    assert program["metadata"]["request"] == "make the chair wider"
+    assert program["ops"][0]["operand"] == "seat"
+    records = [json.loads(line) for line in (out / "record.jsonl").read_text().splitlines()]
+    assert {r["task"] for r in records} >= {"seed_edit"} and all(r["prompt"] for r in records)
+
+
+def test_edit_from_words_one_shot_skips_the_solver(tmp_path):
+    out = tmp_path / "oneshot"
+    assert main(["edit", "chair", "make the chair wider", "--mode", "one-shot", "-o", str(out)]) == 0
+    program = json.loads((out / "program.json").read_text())
+    assert program["metadata"]["solver"] == "none (one-shot)"
+
+
+def test_edit_not_understood_is_exit_2_with_the_record_kept(tmp_path, capsys):
+    out = tmp_path / "fly"
+    assert main(["edit", "chair", "make it fly", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "fly" in err
+    assert sorted(p.name for p in out.iterdir()) == ["record.jsonl"]
+    one_line_error(capsys, ["edit", "chair", "-o", str(tmp_path / "none")], "needs a request")

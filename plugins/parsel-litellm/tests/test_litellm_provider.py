@@ -14,6 +14,7 @@ from collections.abc import Iterator
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
+
 from parsel_litellm import LiteLLMError, LiteLLMProvider
 
 SEED_REPLY = """The top should get wider, so it stretches along x about its centre.

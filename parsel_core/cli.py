@@ -77,84 +77,77 @@ def _print_corners(evaluation, part_ids) -> None:
             print(f"      {k}: ({row[0]: .4f}, {row[1]: .4f}, {row[2]: .4f})")
 
 
-def relation_states(program, shape, backend_name: str | None = None, samples: int = 50) -> dict[str, str]:
-    """``kept`` or ``broken`` for each relation, checked at sampled parameter values."""
-    from parsel_core.plugins import get_cas_backend
-    from parsel_core.program import compile_program
-
-    compiled = compile_program(program, shape, get_cas_backend(backend_name))
-    values = {p.name: p.samples(samples, seed=i) for i, p in enumerate(program.parameters)}
-    corners = compiled(values).parts
-    tol = 1e-6 * shape.size
-    return {rid: "kept" if r.holds(corners, tol) else "broken" for rid, r in shape.relations.items()}
+DEMO_REQUESTS = {"chair": "make the chair wider", "tiny_table": "make the table wider"}
+DEMO_SEEDS = {"tiny_table": "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)",
+              "chair": "scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)"}
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    """The most complete path that exists: a built-in shape, a program on it, corners printed."""
-    from parsel_core.loading import load_shape
-    from parsel_core.plugins import get_cas_backend
-    from parsel_core.program import Program, compile_program
+    """The whole job on a bundled asset: request -> seed -> program -> report -> outputs."""
+    from pathlib import Path
 
-    shape = load_shape(args.shape)
-    program = Program.from_text(DEMO_PROGRAM, source="demo")
-    backend = get_cas_backend(args.backend)
-    print(f"shape: {shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations")
-    print(f"CAS backend: {backend.name}")
-    print("program:")
-    print("  " + program.to_text().strip().replace("\n", "\n  "))
-    compiled = compile_program(program, shape, backend)
+    from parsel_core.loading import load_program, load_shape
+    from parsel_core.plugins import example_shapes, get_plugin_manager, llm_providers
+    from parsel_core.program import evaluate
+
+    name = args.shape or ("chair" if "chair" in example_shapes() else "tiny_table")
+    shape = load_shape(name)
+    kinds: dict[str, int] = {}
+    for relation in shape.relations.values():
+        kinds[relation.kind] = kinds.get(relation.kind, 0) + 1
+    print(f"shape: {shape.name}: {len(shape.parts)} parts; relations: "
+          + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items())))
+    output = Path(args.output)
+    request = args.request or DEMO_REQUESTS.get(name, "make it wider")
+    if "offline" in llm_providers() and not args.seed:
+        print(f'request: "{request}" (offline provider)')
+        argv = ["edit", name, request, "-o", str(output)]
+    else:
+        seed = args.seed or DEMO_SEEDS.get(name)
+        if seed is None:
+            raise ParselError(f"no demo seed for {name!r}; give --seed")
+        print(f"seed (expert mode): {seed}")
+        argv = ["edit", name, "--seed", seed, "-o", str(output)]
+    if args.backend:
+        argv += ["--backend", args.backend]
+    status = main(argv)
+    if status:
+        return status
+    program = load_program(output / "program.json")
+    print("\nprogram:\n  " + program.to_text().strip().replace("\n", "\n  "))
     parameter = program.parameters[0]
+    edited = [pid for pid in dict.fromkeys(op.operand for op in program.ops) if pid in shape.parts][:3]
     for value in np.linspace(parameter.lo, parameter.hi, 3):
-        evaluation = compiled({parameter.name: value})
-        print(f"\n{parameter.name} = {value:g}")
-        _print_corners(evaluation, ["top", "leg_br", "rail_back"])
+        evaluation = evaluate(program, shape, {parameter.name: float(value)})
+        print(f"\n{parameter.name} = {value:g}: corners of {', '.join(edited)}")
+        _print_corners(evaluation, edited)
         for group, instances in evaluation.instances.items():
-            centres = ", ".join(f"{c[0]:.3f}" for c in instances.mean(axis=1))
-            print(f"    {group}: {len(instances)} instances, centre x = {centres}")
-    states = relation_states(program, shape, args.backend)
-    kept = sum(state == "kept" for state in states.values())
-    print(f"\nrelations kept over [{parameter.lo:g}, {parameter.hi:g}]: {kept}/{len(states)}")
-    for rid, state in states.items():
-        if state != "kept":
-            print(f"  broken: {rid}")
-    _demo_propagation(shape, args.backend)
+            print(f"    {group}: {len(instances)} instances")
+    report = json.loads((output / "report.json").read_text())
+    counts = report["counts"]
+    print(f"\nrelations over [{parameter.lo:g}, {parameter.hi:g}]: {counts['kept']} kept, "
+          f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken")
+    commands: set[str] = set()
+    get_plugin_manager().hook.parsel_register_commands(subparsers=_Recorder(commands))
+    if "view" in commands:
+        main(["view", str(output), "--html", str(output / "slider.html"), "--no-browser"])
+    if "render" in commands:
+        main(["render", name, str(output / "program.json"), "-o", str(output / "strip.png")])
+    print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir()))} in {output}/")
     return 0
 
 
-def _demo_propagation(shape, backend: str | None) -> None:
-    """The same edit found by edit propagation from the seed alone (when a solver is installed)."""
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.plugins import solvers
-    from parsel_core.program import Program
-    from parsel_core.report import check_program
+class _Recorder:
+    """Collects the names of the sub-commands plugins register, without keeping their parsers."""
 
-    if "aep" not in solvers():
-        return
-    seed = "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)"
-    result = solvers()["aep"].run(SolveRequest(shape, Program.from_text(seed), options={"backend": backend}))
-    counts = check_program(shape, result.program).counts()
-    print(f"\nedit propagation (aep) from the seed alone: {seed}")
-    print("  " + result.program.to_text().strip().replace("\n", "\n  "))
-    print(f"  relations: {counts['kept']} kept, {counts['broken']} broken; "
-          f"{result.stats['candidates_screened']} candidates screened in {result.stats['time_s']['total']:.2f} s")
+    def __init__(self, names: set[str]) -> None:
+        self.names = names
+
+    def add_parser(self, name: str, **kwargs):
+        self.names.add(name)
+        return argparse.ArgumentParser(prog=name, add_help=False)
 
 
-DEMO_PROGRAM = """\
-# Widen the table: the top stretches, the legs move out with it (mirrored), the
-# rails stretch to meet the legs, and the slats spread so they stay on the rails.
-param x in [0, 0.5] default 0.25
-scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)
-translate(leg_br, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_fr, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_bl, dir=(-1, 0, 0), amount=0.45 * x)
-translate(leg_fl, dir=(-1, 0, 0), amount=0.45 * x)
-scale_1d(rail_back, origin=(0, 0.22, -0.25), dir=(1, 0, 0), amount=18 * x / 17)
-scale_1d(rail_front, origin=(0, 0.22, 0.25), dir=(1, 0, 0), amount=18 * x / 17)
-translate(slat_0, dir=(-1, 0, 0), amount=0.3 * 18 * x / 17)
-translate(slat_1, dir=(-1, 0, 0), amount=0.1 * 18 * x / 17)
-translate(slat_2, dir=(1, 0, 0), amount=0.1 * 18 * x / 17)
-translate(slat_3, dir=(1, 0, 0), amount=0.3 * 18 * x / 17)
-"""
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -436,8 +429,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=cmd_plugins)
 
-    p = sub.add_parser("demo", help="run a program on a built-in shape and print the corners")
-    p.add_argument("--shape", default="tiny_table", help="example name or shape file (default: tiny_table)")
+    p = sub.add_parser("demo", help="the whole job on a bundled asset: request to program, report and pages")
+    p.add_argument("--shape", help="example name or shape file (default: chair, else tiny_table)")
+    p.add_argument("--request", help="the edit request (default: make the chair wider)")
+    p.add_argument("--seed", help="use expert mode with this seed op instead of a request")
+    p.add_argument("-o", "--output", default="demo-output", help="output directory (default: demo-output)")
     _add_backend(p)
     p.set_defaults(func=cmd_demo)
 

@@ -118,3 +118,22 @@ def tiny_table() -> ShapeGraph:
     relations += [attachment(f"attach_{slat.id}_{rail.id}", slat, rail, "line", axis=2)
                   for slat in slats for rail in rails]
     return ShapeGraph(parts, relations, name="tiny_table", source="builtin:tiny_table")
+
+
+#: A hand-written "widen the table" program for ``tiny_table`` that keeps all 26 relations:
+#: the top stretches, the legs move out (mirrored), the rails stretch to meet the legs
+#: and the slats spread so they stay on the rails.
+WIDEN_TINY_TABLE = """\
+param x in [0, 0.5] default 0.25
+scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)
+translate(leg_br, dir=(1, 0, 0), amount=0.45 * x)
+translate(leg_fr, dir=(1, 0, 0), amount=0.45 * x)
+translate(leg_bl, dir=(-1, 0, 0), amount=0.45 * x)
+translate(leg_fl, dir=(-1, 0, 0), amount=0.45 * x)
+scale_1d(rail_back, origin=(0, 0.22, -0.25), dir=(1, 0, 0), amount=18 * x / 17)
+scale_1d(rail_front, origin=(0, 0.22, 0.25), dir=(1, 0, 0), amount=18 * x / 17)
+translate(slat_0, dir=(-1, 0, 0), amount=0.3 * 18 * x / 17)
+translate(slat_1, dir=(-1, 0, 0), amount=0.1 * 18 * x / 17)
+translate(slat_2, dir=(1, 0, 0), amount=0.1 * 18 * x / 17)
+translate(slat_3, dir=(1, 0, 0), amount=0.3 * 18 * x / 17)
+"""

@@ -20,12 +20,20 @@ def files(tmp_path):
     return tmp_path, program, shape
 
 
-def test_demo_prints_corners_and_keeps_every_relation(capsys):
-    assert main(["demo"]) == 0
+def test_demo_runs_the_whole_job_and_keeps_every_relation(capsys, tmp_path):
+    assert main(["demo", "-o", str(tmp_path / "demo")]) == 0
     out = capsys.readouterr().out
-    assert "x = 0.5" in out and "leg_br:" in out
-    assert "relations kept over [0, 0.5]: 26/26" in out
-    assert "(-0.7500,  0.7000, -0.3000)" in out  # the top's corner 0 at x = 0.5: -0.5 * 1.5
+    assert 'request: "make the chair wider"' in out and "x = 1: corners of seat" in out
+    assert "0 broken on purpose, 0 broken" in out
+    assert {"program.json", "report.json", "record.jsonl"} <= {p.name for p in (tmp_path / "demo").iterdir()}
+
+
+def test_demo_in_expert_mode_on_the_builtin_table(capsys, tmp_path):
+    assert main(["demo", "--shape", "tiny_table", "--seed", "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), "
+                 "amount=x)", "-o", str(tmp_path / "demo")]) == 0
+    out = capsys.readouterr().out
+    assert "relations over [0, 1]: 26 kept, 0 broken on purpose, 0 broken" in out
+    assert "(-1.0000,  0.7000, -0.3000)" in out  # the top's corner 0 at x = 1: -0.5 * 2
 
 
 @pytest.mark.parametrize("backend", ["sympy", "symengine"])

@@ -68,9 +68,9 @@ def test_symbolic_residuals_are_the_numeric_ones(parsel_shape, parsel_backend):
 
 
 def test_kept_relations_are_zero_over_the_whole_range(parsel_shape, parsel_backend):
-    from parsel_core.cli import DEMO_PROGRAM
+    from parsel_core.examples import WIDEN_TINY_TABLE
 
-    program = Program.from_text(DEMO_PROGRAM)
+    program = Program.from_text(WIDEN_TINY_TABLE)
     compiled = compile_program(program, parsel_shape, parsel_backend)
     corners = compiled({"x": np.linspace(0, 0.5, 51)}).parts
     for relation in parsel_shape.relations.values():

@@ -54,7 +54,10 @@ def _combination(backend: CASBackend, weights: np.ndarray, terms: Sequence) -> o
 def affine_amount(backend: CASBackend, slope: np.ndarray, residual: Sequence) -> object:
     """Solve the normal equation of ``a f + b(x) = 0`` for ``f`` with the backend."""
     f = backend.symbol("f")
-    weights = slope / float(slope @ slope)
+    norm = float(slope @ slope)
+    if norm < 1e-18:
+        raise ValueError("the candidate does not move the constrained points")
+    weights = slope / norm
     equation = f + _combination(backend, weights, residual)
     solutions = backend.solve(equation, "f")
     if len(solutions) != 1:

@@ -322,8 +322,14 @@ class Propagation:
         others = {m: corners[m] for r in anchor_constraints for m in r.members if m not in rest}
         results = screen(candidates, rest, others, anchor_constraints, self.tolerance)
         sliding = set(members)
-        proposals = [(s.op.origin, self.amount_text(state, s, rest, anchor_constraints, ()))
-                     for s in results if not s.broken and np.abs(s.f).max() > 1e-12]
+        proposals = []
+        for screened in results:
+            if not screened.broken and np.abs(screened.f).max() > 1e-12:
+                try:
+                    proposals.append((screened.op.origin, self.amount_text(state, screened, rest, anchor_constraints,
+                                                                           ())))
+                except ValueError:
+                    continue
         # A row framed by a scaled neighbour can also take that neighbour's scaling outright.
         proposals += [(op.origin, op.amount) for op in state.ops if isinstance(op, Scale1D) and op.feature is None
                       and abs(float(np.dot(op.dir, direction))) > 0.999]
@@ -420,7 +426,10 @@ class Propagation:
                                                                             constraints) if r.id not in broken])
         op = screened.op
         if screened.kind == "affine":
-            expr = affine_amount(self.backend, screened.a[columns], residual)
+            try:
+                expr = affine_amount(self.backend, screened.a[columns], residual)
+            except ValueError:
+                return None
             if isinstance(op, Translate) and op.feature is None and screened.f[-1] < 0:
                 # a move to the left reads better as dir=(-1, 0, 0), amount=+...
                 op = dataclasses.replace(op, dir=tuple(-c + 0.0 for c in op.dir))

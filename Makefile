@@ -24,6 +24,7 @@ test: install
 
 bench: install
 	$(BIN)/python benchmarks/bench_cas.py
+	$(BIN)/python benchmarks/bench_deform.py
 
 clean:
 	rm -rf $(VENV) *.egg-info plugins/*/*.egg-info

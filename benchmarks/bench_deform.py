@@ -1,0 +1,103 @@
+"""One slider step on a 100k-vertex asset: program evaluation (compiled) plus cage deformation.
+
+The asset is the bundled chair with every part's mesh subdivided until the chair has
+at least 100,000 vertices. A slider step is what an interactive Python client does per
+slider move: ``CompiledProgram(values)`` (the program lambdified once by the CAS
+backend) and ``CageDeformer.vertices`` (one cached ``(m, 8) @ (8, 3)`` product per
+part). Prints the median over many steps of each piece and of the whole step, for a
+program of part ops and, when the chair's relations are detected, the same program
+with a re-laid-out symmetry group. Goal: a whole step <= 5 ms.
+
+    python benchmarks/bench_deform.py [--vertices 100000] [--steps 300] [--backend NAME]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+from parsel_core.graph import ShapeGraph
+from parsel_core.loading import load_shape
+from parsel_core.part import Part
+from parsel_core.plugins import deformers, get_cas_backend
+from parsel_core.program import Program, compile_program, evaluate
+
+PART_OPS = """\
+param x in [0, 1] default 0.5
+param y in [-0.5, 0.5] default 0
+scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)
+translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x)
+translate(face('leg.001', 'v-'), dir=(1, 0, 0), amount=0.1 * x ** 2)
+rotate('back_upright.000', origin=(-0.19, 0.45, -0.19), axis=(0, 0, 1), amount=0.3 * sin(x))
+shear('leg.002', origin=(0, 0, 0), normal=(0, 1, 0), dir=(1, 0, 0), amount=-0.2 * y)
+scale_2d(back_rail, origin=(0, 0.83, -0.19), normal=(0, 1, 0), amount=max(x, y) / 2)
+scale_3d('leg.003', origin=(0.19, 0, -0.18), amount=abs(y))
+translate(corner(seat, 'u+v+w+'), dir=(0, 1, 0), amount=0.05 * y)
+"""
+
+
+def dense_chair(target: int) -> ShapeGraph:
+    """The chair with part meshes subdivided (each triangle into 4) until >= ``target`` vertices."""
+    import trimesh
+
+    shape = load_shape("chair")
+    meshes = {pid: part.mesh for pid, part in shape.parts.items()}
+    while sum(len(m.vertices) for m in meshes.values()) < target:
+        pid = min(meshes, key=lambda p: len(meshes[p].vertices))  # grow the smallest part first
+        vertices, faces = trimesh.remesh.subdivide(meshes[pid].vertices, meshes[pid].faces)
+        meshes[pid] = trimesh.Trimesh(vertices, faces, process=False)
+    parts = [Part(p.id, p.label, p.hexahedron, p.name, meshes[p.id]) for p in shape.parts.values()]
+    return ShapeGraph(parts, shape.relations.values(), shape.name, shape.source, shape.metadata)
+
+
+def median_ms(step, values: list[dict[str, float]]) -> float:
+    times = []
+    for v in values:
+        start = time.perf_counter()
+        step(v)
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1000
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--vertices", type=int, default=100_000)
+    parser.add_argument("--steps", type=int, default=300)
+    parser.add_argument("--backend", default=None, help="CAS backend for compile_program (default: configured)")
+    args = parser.parse_args()
+    shape = dense_chair(args.vertices)
+    backend = get_cas_backend(args.backend)
+    deformer = deformers()["cage"]
+    vertices = sum(len(p.mesh.vertices) for p in shape.parts.values())
+    programs = {"part ops (8 ops, 2 params)": Program.from_text(PART_OPS)}
+    groups = [r for r in shape.relations.values() if r.kind == "translation"]
+    if groups:
+        g = groups[0]
+        text = PART_OPS + (f"scale_1d({g.id}, origin=(0, 0.625, -0.19), dir=(1, 0, 0), amount=x)\n"
+                           f"change_count({g.id}, mode='top_down', amount=4 * x)\n")
+        programs[f"+ {g.id} re-laid out (change_count)"] = Program.from_text(text)
+    rng = np.random.default_rng(0)
+    print(f"asset: chair, {len(shape.parts)} parts, {vertices} vertices; CAS backend {backend.name}; "
+          f"median of {args.steps} steps at random slider values")
+    print(f"\n{'program':<44}{'evaluate':>10}{'deform':>10}{'step':>10}{'numpy ref':>11}   goal <= 5 ms")
+    for name, program in programs.items():
+        compiled = compile_program(program, shape, backend)
+        values = [{p.name: float(rng.uniform(p.lo, p.hi)) for p in program.parameters} for _ in range(args.steps)]
+        deformer.vertices(shape, compiled(values[0]))  # cage weights are computed once, here
+        evaluations = [compiled(v) for v in values[:20]]
+        t_eval = median_ms(compiled, values)
+        t_deform = statistics.median(
+            [median_ms(lambda _v, e=e: deformer.vertices(shape, e), [None] * 5) for e in evaluations])
+        t_step = median_ms(lambda v, c=compiled: deformer.vertices(shape, c(v)), values)
+        t_ref = median_ms(lambda v, p=program: deformer.vertices(shape, evaluate(p, shape, v)), values[:50])
+        verdict = "ok" if t_step <= 5 else "over"
+        print(f"{name:<44}{t_eval:>8.3f}ms{t_deform:>8.3f}ms{t_step:>8.3f}ms{t_ref:>9.3f}ms   {verdict}")
+    print("\nevaluate: CompiledProgram(values); deform: CageDeformer.vertices (all parts); step: both;"
+          "\nnumpy ref: parsel_core.program.evaluate + deform (the uncompiled reference, for comparison)")
+
+
+if __name__ == "__main__":
+    main()

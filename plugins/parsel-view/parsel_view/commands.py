@@ -1,0 +1,89 @@
+"""The ``parsel view`` and ``parsel render`` commands (registered through ``parsel_register_commands``)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    """Serve the slider page of OUTDIR's program on 127.0.0.1, or write it as one file with --html."""
+    from parsel_view.inputs import read_inputs
+    from parsel_view.page import PageServer, write_html
+    from parsel_view.scene import build_page_data
+
+    inputs = read_inputs(args.outdir, args.shape)
+    page = build_page_data(inputs.program, inputs.shape,
+                           meta={"sources": [str(p) for p in inputs.sources], "shape": inputs.shape_spec})
+    if args.html:
+        path = write_html(page, args.html)
+        print(path)
+        return 0
+    server = PageServer(page, port=args.port, quiet=not args.verbose)
+    url = server.start()
+    print(f"serving {inputs.shape.name} with {len(inputs.program.parameters)} slider(s) at {url} (Ctrl-C stops)",
+          flush=True)
+    if not args.no_browser:
+        import webbrowser
+
+        webbrowser.open(url)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        print("stopped", file=sys.stderr)
+    finally:
+        server.stop()
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    """Draw a filmstrip of SHAPE edited by PROGRAM across a parameter's range."""
+    from parsel_core.errors import ParselError
+    from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_view.inputs import program_path
+    from parsel_view.render import PICTURE_FORMATS, draw_filmstrip
+
+    output = Path(args.output)
+    if output.suffix.lower() not in PICTURE_FORMATS:  # before loading anything: fail fast on a typo
+        raise ParselError(f"{output}: unknown picture format {output.suffix.lower() or '(none)'!r} "
+                          f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
+    if not output.parent.is_dir():
+        raise ParselError(f"{output}: output directory {output.parent} does not exist")
+    path = program_path(args.program)
+    program = load_program(path)
+    shape = load_shape(args.shape)
+    try:
+        program.validate(shape)
+    except ParselError as exc:
+        raise ParselError(f"{path}: does not match shape {shape.name!r}: {exc}") from None
+    options = {"resolution": args.resolution} if args.resolution else {}
+    draw_filmstrip(shape, program, output, frames=args.frames, parameter=args.param,
+                   values=parse_assignments(args.set), remesh=args.remesh, remesh_options=options)
+    print(output)
+    return 0
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("view", help="a page with one slider per parameter (served on 127.0.0.1, or --html)")
+    p.add_argument("outdir", nargs="+", metavar="OUTDIR",
+                   help="what parsel edit wrote (or a program file); several are stacked, each with its own sliders")
+    p.add_argument("--shape", help="shape file or example name (default: the program's metadata 'shape')")
+    p.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (default 8765; 0: any free port)")
+    p.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    p.add_argument("--html", metavar="FILE", help="write the page as one self-contained .html file and exit")
+    p.add_argument("--verbose", action="store_true", help="log every request")
+    p.set_defaults(func=cmd_view)
+
+    p = subparsers.add_parser("render", help="a filmstrip picture of the edited shape across a parameter's range")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("program", help="program file (.json or text form) or an OUTDIR of parsel edit")
+    p.add_argument("-o", "--output", required=True, help="picture file: .png, .svg or .pdf")
+    p.add_argument("--frames", type=int, default=5, help="number of parameter values (default 5)")
+    p.add_argument("--param", metavar="NAME", help="parameter to sweep (default: the first)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="value of another parameter (repeatable)")
+    p.add_argument("--remesh", action="store_true", help="draw the watertight remesh (needs parsel-remesh)")
+    p.add_argument("--resolution", type=int, help="remesh grid cells along the longest side (with --remesh)")
+    p.set_defaults(func=cmd_render)

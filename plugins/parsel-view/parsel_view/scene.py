@@ -1,0 +1,195 @@
+"""What the slider page needs, computed once in Python: the program as data, the meshes as cage coordinates.
+
+The browser re-implements the ops' point maps and the group layouts
+(``static/parsel_eval.js``), so here every op is reduced to plain numbers: its name,
+the parts it moves (a virtual parent's members included, as
+``parsel_core.program._apply_part_ops`` does), the corners a feature op moves, and its
+own origin / direction fields. Group layouts get the constants that only depend on
+the rest shape (the anchors' cage coordinates in the virtual parent, the rest step).
+Each part's mesh is sent as the cube coordinates ``(u, v, w)`` of its vertices in the
+part's rest hexahedron; the page turns them into the 8 trilinear weights once, and a
+slider step is then one ``(m, 8) @ (8, 3)`` product per edited part.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from parsel_core.cage import inverse_trilinear, point_weights
+from parsel_core.errors import ParselError
+from parsel_core.graph import ShapeGraph
+from parsel_core.ops import (
+    ChangeCount,
+    ChangeDelta,
+    EditOp,
+    GroupOp,
+    KeepFixed,
+    Rotate,
+    Scale1D,
+    Scale2D,
+    Scale3D,
+    Shear,
+    Translate,
+)
+from parsel_core.program import Program, top_down_groups
+from parsel_core.relations import RotationSymmetry, TranslationSymmetry
+from parsel_view.jsexpr import amounts_script
+
+SCENE_FORMAT = "parsel.view"
+SCENE_VERSION = 1
+
+#: Part ops the page implements, by class (not by name: a plugin may reuse a name).
+JS_PART_OPS: tuple[type[EditOp], ...] = (Translate, Rotate, Scale1D, Scale2D, Scale3D, Shear, KeepFixed)
+JS_GROUP_OPS: tuple[type[EditOp], ...] = (ChangeCount, ChangeDelta)
+
+
+def b64(array: np.ndarray, dtype: str) -> str:
+    """Little-endian bytes of ``array`` as base64: 4/3 the binary size, instead of ~2.5x for JSON numbers."""
+    return base64.b64encode(np.ascontiguousarray(array, dtype=dtype).tobytes()).decode("ascii")
+
+
+def label_colours(labels: Sequence[str]) -> dict[str, list[float]]:
+    """The colours ``parsel inspect --png`` uses (``parsel_core.drawing.label_colours``), as RGB."""
+    from parsel_core.drawing import label_colours as core_colours
+
+    return {label: [round(float(c), 4) for c in rgba[:3]] for label, rgba in core_colours(labels).items()}
+
+
+def js_class(op: EditOp) -> type[EditOp] | None:
+    """The built-in op class whose point map the page re-implements for ``op``, if any.
+
+    A subclass that overrides ``transform`` (or registers another name) is a different
+    map, so it has no JavaScript form."""
+    for cls in JS_PART_OPS + JS_GROUP_OPS:
+        if isinstance(op, cls) and type(op).transform is cls.transform and op.name == cls.name:
+            return cls
+    return None
+
+
+def _op_data(index: int, op: EditOp, shape: ShapeGraph, anchors_only: set[str]) -> dict[str, Any]:
+    cls = js_class(op)
+    if cls is None:
+        raise ParselError(f"op {index} ({op.name} on {op.operand!r}) has no JavaScript form, so the slider page "
+                          f"cannot show it (the page implements: "
+                          f"{', '.join(c.name for c in JS_PART_OPS + JS_GROUP_OPS)})")
+    if cls in JS_GROUP_OPS:
+        return {"index": index, "op": op.name, "kind": "group", "group": op.operand, "mode": op.mode}
+    targets = [op.operand]
+    if op.operand in shape.virtual_parents and op.operand not in anchors_only:
+        targets += list(shape.relations[op.operand].members)
+    params = {key: list(value) if isinstance(value, tuple) else value for key, value in op.params().items()}
+    return {"index": index, "op": op.name, "kind": "part", "targets": targets,
+            "corners": list(op.corner_indices) if op.feature is not None else None, "params": params}
+
+
+def _group_data(group_id: str, ops: list[tuple[int, GroupOp]], shape: ShapeGraph) -> dict[str, Any]:
+    relation = shape.relations[group_id]
+    rest = shape.rest_corners()
+    members = list(relation.members)
+    data: dict[str, Any] = {"id": group_id, "members": members, "mode": ops[0][1].mode,
+                            "ops": [{"index": i, "op": op.name} for i, op in ops]}
+    if isinstance(relation, TranslationSymmetry):
+        centres = [rest[m].mean(axis=0) for m in members]
+        rest_step = centres[1] - centres[0] if len(members) > 1 else np.zeros(3)
+        anchors = np.array([centres[0], centres[-1]])
+        data.update(kind="translation", rest_step=rest_step.tolist(),
+                    anchor_weights=point_weights(rest[group_id], anchors).tolist())
+    elif isinstance(relation, RotationSymmetry):
+        center = np.asarray(relation.center, dtype=float)
+        axis = np.asarray(relation.axis, dtype=float)
+        data.update(kind="rotation", angle=float(relation.angle), closed=bool(relation.closed),
+                    center=center.tolist(), axis=(axis / np.linalg.norm(axis)).tolist(),
+                    center_weights=point_weights(rest[group_id], center[None])[0].tolist())
+    else:  # pragma: no cover - Program.validate refuses group ops on other relations
+        raise ParselError(f"group {group_id!r} is a {relation.kind}, not a translation or rotation group")
+    return data
+
+
+def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
+    """The program reduced to numbers for ``parsel_eval.js`` (amounts go to :func:`amounts_script`)."""
+    program.validate(shape)
+    anchors_only = top_down_groups(program)
+    ops = [_op_data(i, op, shape, anchors_only) for i, op in enumerate(program.ops)]
+    per_group: dict[str, list[tuple[int, GroupOp]]] = {}
+    for i, op in enumerate(program.ops):
+        if isinstance(op, GroupOp):
+            per_group.setdefault(op.operand, []).append((i, op))
+    return {
+        "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default} for p in program.parameters],
+        "ops": ops,
+        "groups": [_group_data(g, group_ops, shape) for g, group_ops in per_group.items()],
+        "rest": {pid: np.asarray(c, dtype=float).ravel().tolist() for pid, c in shape.rest_corners().items()},
+    }
+
+
+def _part_mesh(shape: ShapeGraph, pid: str) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and triangle faces of a part: its mesh, or its hexahedron's 12 triangles."""
+    part = shape.parts[pid]
+    mesh = part.mesh
+    if mesh is not None and getattr(mesh, "vertices", None) is not None and getattr(mesh, "faces", None) is not None:
+        vertices = np.asarray(mesh.vertices, dtype=float)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
+            raise ParselError(f"shape {shape.name!r}: part {pid!r}: mesh has no triangle faces")
+        return vertices, faces
+    from parsel_view.geometry import hexahedron_triangles
+
+    return np.asarray(part.hexahedron.corners, dtype=float), hexahedron_triangles()
+
+
+def mesh_data(shape: ShapeGraph) -> list[dict[str, Any]]:
+    """Per part: label, colour, cube coordinates of the vertices (float64) and faces (uint32)."""
+    colours = label_colours([p.label for p in shape.parts.values()])
+    out = []
+    for pid, part in shape.parts.items():
+        vertices, faces = _part_mesh(shape, pid)
+        uvw = inverse_trilinear(part.hexahedron.corners, vertices)
+        if not np.all(np.isfinite(uvw)):
+            raise ParselError(f"shape {shape.name!r}: part {pid!r}: its mesh has no cage coordinates in its "
+                              f"hexahedron (a degenerate box?)")
+        out.append({"id": pid, "label": part.label, "colour": colours[part.label],
+                    "vertices": len(vertices), "faces": len(faces),
+                    "uvw": b64(uvw, "<f8"), "index": b64(faces, "<u4")})
+    return out
+
+
+@dataclass
+class PageData:
+    """Everything one page shows: the scene (JSON data) and the amounts (a script)."""
+
+    scene: dict[str, Any]
+    amounts_js: str
+    program: Program
+    shape: ShapeGraph
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def scene_json(self) -> str:
+        """Compact JSON; ``<`` escaped so the text can sit inside a ``<script>`` element."""
+        return json.dumps(self.scene, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
+
+
+def build_page_data(program: Program, shape: ShapeGraph, title: str | None = None,
+                    meta: Mapping[str, Any] | None = None) -> PageData:
+    """The page's scene for ``program`` on ``shape``; raises ``ParselError`` naming a mismatch."""
+    data = program_data(program, shape)
+    corners = np.concatenate([np.asarray(c, dtype=float) for c in shape.rest_corners().values()])
+    info = {key: value for key, value in dict(program.metadata).items() if isinstance(value, (str, int, float))}
+    scene = {
+        "format": SCENE_FORMAT,
+        "version": SCENE_VERSION,
+        "shape": shape.name,
+        "title": title or f"{shape.name}: {len(program.ops)} ops, {len(program.parameters)} parameter(s)",
+        "metadata": info,
+        "program_text": program.to_text(),
+        "bounds": [corners.min(axis=0).tolist(), corners.max(axis=0).tolist()],
+        "meshes": mesh_data(shape),
+        **data,
+    }
+    script = amounts_script([op.amount for op in program.ops], program.parameter_names)
+    return PageData(scene, script, program, shape, dict(meta or {}))

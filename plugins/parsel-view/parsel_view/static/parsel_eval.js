@@ -1,0 +1,306 @@
+/* parsel_eval.js: a parsel program evaluated in the browser (or in Node for tests).
+ *
+ * Mirrors parsel_core.program.evaluate for one set of parameter values:
+ *   1. every op's amount: PARSEL_AMOUNTS[i](values), generated from the safe expression tree;
+ *   2. part ops in program order, each the point map of parsel_core/ops.py on the corners
+ *      of its targets (on a feature, only that feature's corners);
+ *   3. group layouts (parsel_core/layout.py): instances of the first member as edited;
+ *   4. meshes: each vertex holds its 8 trilinear weights in its part's rest hexahedron,
+ *      so its position is one (m, 8) @ (8, 3) product with the evaluated corners.
+ * Corners are Float64Array(24) in canonical corner order (corner k at the bits of k).
+ */
+(function (root) {
+  "use strict";
+
+  function decodeBase64(text, Type) {
+    var bytes;
+    if (typeof atob === "function") {
+      var binary = atob(text);
+      bytes = new Uint8Array(binary.length);
+      for (var i = 0; i < binary.length; i++) bytes[i] = binary.charCodeAt(i);
+    } else {
+      var buffer = Buffer.from(text, "base64");
+      bytes = new Uint8Array(buffer.byteLength);
+      bytes.set(buffer);
+    }
+    return new Type(bytes.buffer, 0, bytes.byteLength / Type.BYTES_PER_ELEMENT);
+  }
+
+  /* Trilinear weights (m * 8) of cube points uvw (m * 3): parsel_core.cage.cage_weights. */
+  function trilinearWeights(uvw) {
+    var m = uvw.length / 3, out = new Float64Array(m * 8);
+    for (var i = 0; i < m; i++) {
+      var u = uvw[3 * i], v = uvw[3 * i + 1], w = uvw[3 * i + 2];
+      for (var k = 0; k < 8; k++) {
+        var fu = (k >> 2) & 1 ? u : 1 - u, fv = (k >> 1) & 1 ? v : 1 - v, fw = k & 1 ? w : 1 - w;
+        out[8 * i + k] = fu * fv * fw;
+      }
+    }
+    return out;
+  }
+
+  /* The point maps of parsel_core/ops.py, on one point (x, y, z) -> out[0..2]. */
+  var POINT_MAPS = {
+    translate: function (q, a, pr, out) {
+      var d = pr.dir;
+      out[0] = q[0] + d[0] * a; out[1] = q[1] + d[1] * a; out[2] = q[2] + d[2] * a;
+    },
+    rotate: function (q, a, pr, out) {
+      var o = pr.origin, n = pr.axis, c = Math.cos(a), s = Math.sin(a);
+      var x = q[0] - o[0], y = q[1] - o[1], z = q[2] - o[2];
+      var dot = x * n[0] + y * n[1] + z * n[2];
+      var cx = n[1] * z - n[2] * y, cy = n[2] * x - n[0] * z, cz = n[0] * y - n[1] * x;
+      out[0] = o[0] + (x * c + cx * s + dot * n[0] * (1 - c));
+      out[1] = o[1] + (y * c + cy * s + dot * n[1] * (1 - c));
+      out[2] = o[2] + (z * c + cz * s + dot * n[2] * (1 - c));
+    },
+    scale_1d: function (q, a, pr, out) {
+      var o = pr.origin, d = pr.dir;
+      var x = q[0] - o[0], y = q[1] - o[1], z = q[2] - o[2];
+      var dot = x * d[0] + y * d[1] + z * d[2];
+      out[0] = o[0] + x + dot * d[0] * a; out[1] = o[1] + y + dot * d[1] * a; out[2] = o[2] + z + dot * d[2] * a;
+    },
+    scale_2d: function (q, a, pr, out) {
+      var o = pr.origin, n = pr.normal;
+      var x = q[0] - o[0], y = q[1] - o[1], z = q[2] - o[2];
+      var dot = x * n[0] + y * n[1] + z * n[2];
+      var ax = dot * n[0], ay = dot * n[1], az = dot * n[2];
+      out[0] = o[0] + (x - ax) * (1 + a) + ax;
+      out[1] = o[1] + (y - ay) * (1 + a) + ay;
+      out[2] = o[2] + (z - az) * (1 + a) + az;
+    },
+    scale_3d: function (q, a, pr, out) {
+      var o = pr.origin;
+      out[0] = o[0] + (q[0] - o[0]) * (1 + a);
+      out[1] = o[1] + (q[1] - o[1]) * (1 + a);
+      out[2] = o[2] + (q[2] - o[2]) * (1 + a);
+    },
+    shear: function (q, a, pr, out) {
+      var o = pr.origin, n = pr.normal, d = pr.dir;
+      var x = q[0] - o[0], y = q[1] - o[1], z = q[2] - o[2];
+      var dot = x * n[0] + y * n[1] + z * n[2];
+      out[0] = o[0] + x + dot * d[0] * a; out[1] = o[1] + y + dot * d[1] * a; out[2] = o[2] + z + dot * d[2] * a;
+    },
+    keep_fixed: function (q, a, pr, out) {
+      out[0] = q[0]; out[1] = q[1]; out[2] = q[2];
+    }
+  };
+  var ALL_CORNERS = [0, 1, 2, 3, 4, 5, 6, 7];
+
+  function applyOp(op, corners, amount) {
+    var map = POINT_MAPS[op.op], q = [0, 0, 0], out = [0, 0, 0];
+    var which = op.corners || ALL_CORNERS;
+    for (var i = 0; i < which.length; i++) {
+      var k = which[i];
+      q[0] = corners[3 * k]; q[1] = corners[3 * k + 1]; q[2] = corners[3 * k + 2];
+      map(q, amount, op.params, out);
+      corners[3 * k] = out[0]; corners[3 * k + 1] = out[1]; corners[3 * k + 2] = out[2];
+    }
+  }
+
+  function centroid(c) {
+    var s = [0, 0, 0];
+    for (var k = 0; k < 8; k++) { s[0] += c[3 * k]; s[1] += c[3 * k + 1]; s[2] += c[3 * k + 2]; }
+    return [s[0] / 8, s[1] / 8, s[2] / 8];
+  }
+
+  function weighted(weights, c) {
+    var s = [0, 0, 0];
+    for (var k = 0; k < 8; k++) {
+      s[0] += weights[k] * c[3 * k]; s[1] += weights[k] * c[3 * k + 1]; s[2] += weights[k] * c[3 * k + 2];
+    }
+    return s;
+  }
+
+  function norm(v) { return Math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+  function roundHalfUp(a) { return Math.floor(a + 0.5); }
+
+  /* parsel_core.layout.translation_layout: instances as an array of Float64Array(24). */
+  function translationLayout(g, parent, members, amounts) {
+    var k = g.members.length, first = members[0], mean = centroid(first);
+    var restStep = g.rest_step, count = k, start, step, i, j;
+    if (g.mode === "top_down") {
+      start = weighted(g.anchor_weights[0], parent);
+      var end = weighted(g.anchor_weights[1], parent);
+      var span = [end[0] - start[0], end[1] - start[1], end[2] - start[2]];
+      step = k > 1 ? [span[0] / (k - 1), span[1] / (k - 1), span[2] / (k - 1)] : [0, 0, 0];
+      for (i = 0; i < g.ops.length; i++) {
+        var a = amounts[g.ops[i].index];
+        if (g.ops[i].op === "change_count") {
+          count = Math.max(1, k + roundHalfUp(a));
+          step = count > 1 ? [span[0] / (count - 1), span[1] / (count - 1), span[2] / (count - 1)] : [0, 0, 0];
+        } else {
+          var length = norm(span), restLength = norm(restStep);
+          var direction = length > 0 ? [span[0] / length, span[1] / length, span[2] / length]
+            : [restStep[0] / Math.max(restLength, 1e-300), restStep[1] / Math.max(restLength, 1e-300),
+              restStep[2] / Math.max(restLength, 1e-300)];
+          var scale = restLength * (1 + a);
+          step = [direction[0] * scale, direction[1] * scale, direction[2] * scale];
+          var size = norm(step);
+          count = size > 1e-12 ? Math.floor(length / size + 1e-9) + 1 : 1;
+        }
+      }
+    } else {
+      start = mean;
+      if (k > 1) {
+        var second = centroid(members[1]);
+        step = [second[0] - start[0], second[1] - start[1], second[2] - start[2]];
+      } else {
+        step = [0, 0, 0];
+      }
+      for (i = 0; i < g.ops.length; i++) {
+        var b = amounts[g.ops[i].index];
+        if (g.ops[i].op === "change_count") count = Math.max(1, k + roundHalfUp(b));
+        else step = [step[0] * (1 + b), step[1] * (1 + b), step[2] * (1 + b)];
+      }
+    }
+    var out = [];
+    for (j = 0; j < count; j++) {
+      var c = new Float64Array(24);
+      for (var q = 0; q < 8; q++) {
+        for (var d = 0; d < 3; d++) c[3 * q + d] = first[3 * q + d] - mean[d] + (start[d] + j * step[d]);
+      }
+      out.push(c);
+    }
+    return out;
+  }
+
+  /* parsel_core.layout.rotation_layout. */
+  function rotationLayout(g, parent, members, amounts) {
+    var k = g.members.length, angle = g.angle, closed = g.closed, center = g.center.slice(), count = k, i, j;
+    var topDown = g.mode === "top_down";
+    if (topDown) center = weighted(g.center_weights, parent);
+    var span = angle * (k - 1);
+    for (i = 0; i < g.ops.length; i++) {
+      var a = amounts[g.ops[i].index];
+      if (g.ops[i].op === "change_count") {
+        count = Math.max(1, k + roundHalfUp(a));
+        if (closed) angle = (g.angle < 0 ? -1 : 1) * (2 * Math.PI / count);
+        else if (topDown && count > 1) angle = span / (count - 1);
+      } else {
+        angle = g.angle * (1 + a);
+        if (topDown && Math.abs(angle) > 1e-12) {
+          var full = closed ? 2 * Math.PI : Math.abs(span);
+          count = Math.max(1, Math.floor(full / Math.abs(angle) + 1e-9) + (closed ? 0 : 1));
+        }
+      }
+    }
+    var n = g.axis, first = members[0], out = [];
+    for (j = 0; j < count; j++) {
+      var t = j * angle, c = Math.cos(t), s = Math.sin(t), inst = new Float64Array(24);
+      for (var q = 0; q < 8; q++) {
+        var x = first[3 * q] - center[0], y = first[3 * q + 1] - center[1], z = first[3 * q + 2] - center[2];
+        var dot = x * n[0] + y * n[1] + z * n[2];
+        var cx = n[1] * z - n[2] * y, cy = n[2] * x - n[0] * z, cz = n[0] * y - n[1] * x;
+        inst[3 * q] = center[0] + x * c + cx * s + dot * n[0] * (1 - c);
+        inst[3 * q + 1] = center[1] + y * c + cy * s + dot * n[1] * (1 - c);
+        inst[3 * q + 2] = center[2] + z * c + cz * s + dot * n[2] * (1 - c);
+      }
+      out.push(inst);
+    }
+    return out;
+  }
+
+  /* A program on a shape: evaluate(values) gives corners; deform(...) moves the meshes. */
+  function Model(scene, amounts) {
+    this.scene = scene;
+    this.amountFns = amounts;
+    this.parameters = scene.parameters;
+    this.rest = {};
+    for (var pid in scene.rest) this.rest[pid] = Float64Array.from(scene.rest[pid]);
+    this.meshes = {};
+    this.replaced = {};
+    for (var i = 0; i < scene.meshes.length; i++) {
+      var m = scene.meshes[i];
+      var uvw = decodeBase64(m.uvw, Float64Array);
+      this.meshes[m.id] = {
+        id: m.id, label: m.label, colour: m.colour, vertexCount: m.vertices,
+        weights: trilinearWeights(uvw), index: decodeBase64(m.index, Uint32Array)
+      };
+    }
+    for (var g = 0; g < scene.groups.length; g++) {
+      for (var j = 0; j < scene.groups[g].members.length; j++) this.replaced[scene.groups[g].members[j]] = true;
+    }
+  }
+
+  Model.prototype.defaults = function () {
+    var values = {};
+    for (var i = 0; i < this.parameters.length; i++) values[this.parameters[i].name] = this.parameters[i].default;
+    return values;
+  };
+
+  Model.prototype.amounts = function (values) {
+    var out = new Array(this.amountFns.length);
+    for (var i = 0; i < this.amountFns.length; i++) out[i] = this.amountFns[i](values);
+    return out;
+  };
+
+  /* {parts: {id: Float64Array(24)}, instances: {group: [Float64Array(24)]}, removed: {id: true}} */
+  Model.prototype.evaluate = function (values) {
+    var amounts = this.amounts(values), parts = {}, pid, i, t;
+    for (pid in this.rest) parts[pid] = Float64Array.from(this.rest[pid]);
+    var ops = this.scene.ops;
+    for (i = 0; i < ops.length; i++) {
+      if (ops[i].kind !== "part") continue;
+      for (t = 0; t < ops[i].targets.length; t++) applyOp(ops[i], parts[ops[i].targets[t]], amounts[i]);
+    }
+    var instances = {}, removed = {};
+    for (i = 0; i < this.scene.groups.length; i++) {
+      var g = this.scene.groups[i], members = [];
+      for (t = 0; t < g.members.length; t++) members.push(parts[g.members[t]]);
+      var laid = g.kind === "translation" ? translationLayout(g, parts[g.id], members, amounts)
+        : rotationLayout(g, parts[g.id], members, amounts);
+      for (t = 0; t < g.members.length; t++) {
+        if (t < laid.length) {
+          parts[g.members[t]] = Float64Array.from(laid[t]);
+        } else {
+          parts[g.members[t]] = new Float64Array(24).fill(NaN);
+          removed[g.members[t]] = true;
+        }
+      }
+      instances[g.id] = laid;
+    }
+    return { parts: parts, instances: instances, removed: removed, amounts: amounts };
+  };
+
+  /* Vertices (Float32Array m * 3, written into `out` when given) of a mesh in `corners`. */
+  Model.prototype.deformInto = function (meshId, corners, out) {
+    var mesh = this.meshes[meshId], W = mesh.weights, m = mesh.vertexCount;
+    out = out || new Float32Array(m * 3);
+    var c0x = corners[0], c0y = corners[1], c0z = corners[2], c1x = corners[3], c1y = corners[4], c1z = corners[5];
+    var c2x = corners[6], c2y = corners[7], c2z = corners[8], c3x = corners[9], c3y = corners[10], c3z = corners[11];
+    var c4x = corners[12], c4y = corners[13], c4z = corners[14], c5x = corners[15], c5y = corners[16];
+    var c5z = corners[17], c6x = corners[18], c6y = corners[19], c6z = corners[20], c7x = corners[21];
+    var c7y = corners[22], c7z = corners[23];
+    for (var i = 0, b = 0, o = 0; i < m; i++, b += 8, o += 3) {
+      var w0 = W[b], w1 = W[b + 1], w2 = W[b + 2], w3 = W[b + 3], w4 = W[b + 4], w5 = W[b + 5], w6 = W[b + 6];
+      var w7 = W[b + 7];
+      out[o] = w0 * c0x + w1 * c1x + w2 * c2x + w3 * c3x + w4 * c4x + w5 * c5x + w6 * c6x + w7 * c7x;
+      out[o + 1] = w0 * c0y + w1 * c1y + w2 * c2y + w3 * c3y + w4 * c4y + w5 * c5y + w6 * c6y + w7 * c7y;
+      out[o + 2] = w0 * c0z + w1 * c1z + w2 * c2z + w3 * c3z + w4 * c4z + w5 * c5z + w6 * c6z + w7 * c7z;
+    }
+    return out;
+  };
+
+  /* What is drawn: [{name, mesh (source part id), corners}], group members replaced by instances
+     (named <first member>#<i>, as parsel_mesh.deform names them). */
+  Model.prototype.drawList = function (evaluation) {
+    var list = [], i, pid;
+    for (i = 0; i < this.scene.meshes.length; i++) {
+      pid = this.scene.meshes[i].id;
+      if (!this.replaced[pid]) list.push({ name: pid, mesh: pid, corners: evaluation.parts[pid] });
+    }
+    for (i = 0; i < this.scene.groups.length; i++) {
+      var g = this.scene.groups[i], inst = evaluation.instances[g.id] || [];
+      for (var j = 0; j < inst.length; j++) list.push({ name: g.members[0] + "#" + j, mesh: g.members[0], corners: inst[j] });
+    }
+    return list;
+  };
+
+  var api = {
+    Model: Model, decodeBase64: decodeBase64, trilinearWeights: trilinearWeights, applyOp: applyOp,
+    translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
+  };
+  root.ParselEval = api;
+  if (typeof module !== "undefined" && module.exports) module.exports = api;
+})(typeof window !== "undefined" ? window : globalThis);

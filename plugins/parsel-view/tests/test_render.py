@@ -1,0 +1,64 @@
+"""parsel render: filmstrips of deformed meshes and of hexahedra, written atomically."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from parsel_core.cli import main
+from parsel_core.program import Program
+from parsel_view.render import draw_filmstrip, frame_geometry
+
+from .conftest import CHAIR_PROGRAM, TABLE_PROGRAM
+
+
+def test_chair_filmstrip(chair, tmp_path):
+    path = draw_filmstrip(chair, Program.from_text(CHAIR_PROGRAM), tmp_path / "strip.png", frames=3)
+    image = np.asarray(Image.open(path).convert("RGB"))
+    assert image.shape[1] > 3 * image.shape[0] / 2  # a strip, wider than tall
+    # the seat's green (tab20 index 4, "seat" is 5th of the sorted labels) is drawn
+    assert np.any((image[..., 1] > 120) & (image[..., 0] < 90) & (image[..., 2] < 90))
+    assert [p.name for p in tmp_path.iterdir()] == ["strip.png"]
+
+
+def test_frames_sweep_the_chosen_parameter(chair):
+    from parsel_core.program import evaluate
+
+    program = Program.from_text(CHAIR_PROGRAM)
+    seat = [frame_geometry(chair, evaluate(program, chair, {"x": x})).triangles for x in (0.0, 1.0)]
+    width = [np.ptp(t.reshape(-1, 3)[:, 0]) for t in seat]
+    assert width[1] > width[0]
+
+
+def test_shapes_without_meshes_draw_hexahedra(parsel_shape, tmp_path, capsys):
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM + "change_count(slat_row, mode='top_down', amount=4 * x)\n",
+                            encoding="utf-8")
+    assert main(["render", "tiny_table", str(program_path), "-o", str(tmp_path / "table.svg"), "--frames", "2"]) == 0
+    assert (tmp_path / "table.svg").read_text(encoding="utf-8").lstrip().startswith("<?xml")
+    from parsel_core.program import evaluate
+
+    program = Program.from_text(program_path.read_text(encoding="utf-8"))
+    geometry = frame_geometry(parsel_shape, evaluate(program, parsel_shape, {"x": 0.5}))
+    slats = geometry.labels.count("slat")
+    assert slats == 12 * 6  # 4 slats + round(4 * 0.5) = 6 instances, 12 triangles each
+
+
+@pytest.mark.parametrize("frames", [1, 2])
+def test_single_and_few_frames(chair, tmp_path, frames):
+    draw_filmstrip(chair, Program.from_text(CHAIR_PROGRAM), tmp_path / "s.pdf", frames=frames,
+                   parameter="y", values={"x": 0.2})
+    assert (tmp_path / "s.pdf").read_bytes().startswith(b"%PDF")
+
+
+def test_remeshed_filmstrip(tmp_path):
+    pytest.importorskip("parsel_remesh")
+    from parsel_mesh.loaders import shape_from_meshes
+    from parsel_mesh.testing import box_mesh
+
+    shape = shape_from_meshes({"top": box_mesh((0, 0.3, 0), (0.4, 0.35, 0.4)),
+                               "post": box_mesh((0.15, 0, 0.15), (0.25, 0.3, 0.25))}, name="stool")
+    program = Program.from_text("translate(top, dir=(0, 1, 0), amount=0.2 * x)")
+    draw_filmstrip(shape, program, tmp_path / "s.png", frames=2, remesh=True, remesh_options={"resolution": 40})
+    assert (tmp_path / "s.png").read_bytes().startswith(b"\x89PNG")

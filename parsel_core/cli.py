@@ -354,6 +354,103 @@ def _infer(shape, args: argparse.Namespace, files: dict[str, str]):
     return inference
 
 
+def _solve_request(shape, request_text: str, args: argparse.Namespace, records: list):
+    """One request in words -> (program, rejected) through the language layer and the solver."""
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.language import infer
+    from parsel_core.plugins import get_named, solvers
+
+    options = {k: v for k, v in {"api_base": args.api_base, "cache_dir": args.cache}.items() if v is not None}
+    inference = infer(shape, request_text, provider=args.provider, model=args.model, samples=args.samples,
+                      options=options)
+    records.extend(inference.record)
+    solver = get_named("solver", solvers(), "aep")
+    result = solver.run(SolveRequest(shape, inference.seed, inference.hints, tuple(inference.breaks),
+                                     {"backend": args.backend}))
+    return result.program, result.rejected, inference.breaks
+
+
+def cmd_proxydural(args: argparse.Namespace) -> int:
+    """Proxydural modelling (paper 8.1): N requests, one program each, stacked with N sliders."""
+    from parsel_core.language import InferenceError, proxydural_requests
+    from parsel_core.loading import load_shape
+    from parsel_core.report import check_each_parameter, check_program
+
+    shape = load_shape(args.shape)
+    proposal = proxydural_requests(shape, count=args.count, provider=args.provider, model=args.model)
+    records = list(proposal.record)
+    composed, used, skipped, breaks = None, [], [], set()
+    for i, text in enumerate(proposal.requests, start=1):
+        try:
+            program, _, request_breaks = _solve_request(shape, text, args, records)
+        except InferenceError as exc:
+            skipped.append({"request": text, "reason": str(exc)})
+            continue
+        program = program.renamed(program.parameters[0].name, f"x{i}")
+        composed = program if composed is None else composed.then(program)
+        used.append({"request": text, "parameter": f"x{i}"})
+        breaks.update(request_breaks)
+    if composed is None:
+        raise ParselError(f"none of the {len(proposal.requests)} proposed requests could be turned into a program")
+    composed = type(composed)(composed.ops, composed.parameters, {
+        "solver": "aep", "shape": shape.name, "application": "proxydural", "requests": used})
+    report = check_program(shape, composed, sorted(breaks))
+    per_slider = check_each_parameter(shape, composed, sorted(breaks))
+    report.extra.update({"shape": shape.name, "requests": used, "skipped": skipped, "per_slider": per_slider})
+    write_outdir(args.output, {"program.json": composed.to_json(),
+                               "report.json": json.dumps(report.to_dict(), indent=1) + "\n",
+                               "record.jsonl": _records_jsonl(records)})
+    counts = report.counts()
+    print(f"{len(used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in used)}); relations: "
+          f"{counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken "
+          f"-> {args.output}")
+    for name, c in per_slider.items():
+        print(f"  {name} alone: {c['kept']} kept, {c['broken_on_purpose']} broken on purpose, {c['broken']} broken")
+    for item in skipped:
+        print(f"  skipped: {item['request']}: {item['reason']}")
+    return 0
+
+
+def cmd_variations(args: argparse.Namespace) -> int:
+    """Shape variation families (paper 8.2): variants of one request, one program each."""
+    from parsel_core.language import InferenceError, variation_requests
+    from parsel_core.loading import load_shape
+    from parsel_core.report import check_program
+
+    shape = load_shape(args.shape)
+    proposal = variation_requests(shape, args.request, count=args.count, provider=args.provider, model=args.model)
+    records = list(proposal.record)
+    files: dict[str, str] = {}
+    summary = []
+    for i, text in enumerate(proposal.requests, start=1):
+        try:
+            program, rejected, request_breaks = _solve_request(shape, text, args, records)
+        except InferenceError as exc:
+            summary.append({"request": text, "skipped": str(exc)})
+            continue
+        program = type(program)(program.ops, program.parameters, {
+            "solver": "aep", "shape": shape.name, "application": "variations", "request": text,
+            "family": args.request})
+        report = check_program(shape, program, request_breaks)
+        name = f"variation_{i:02d}"
+        files[f"{name}.program.json"] = program.to_json()
+        files[f"{name}.report.json"] = json.dumps(report.to_dict(), indent=1) + "\n"
+        summary.append({"request": text, "program": f"{name}.program.json", "counts": report.counts()})
+    if not any("program" in item for item in summary):
+        raise ParselError(f"none of the variants of {args.request!r} could be turned into a program")
+    files["variations.json"] = json.dumps({"request": args.request, "shape": shape.name, "variants": summary},
+                                          indent=1) + "\n"
+    files["record.jsonl"] = _records_jsonl(records)
+    write_outdir(args.output, files)
+    for item in summary:
+        if "program" in item:
+            c = item["counts"]
+            print(f"{item['program']}: {item['request']} ({c['kept']} kept, {c['broken']} broken)")
+        else:
+            print(f"skipped: {item['request']}: {item['skipped']}")
+    return 0
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     """Recompute the relation report of any program on a shape."""
     from parsel_core.loading import load_program, load_shape
@@ -469,6 +566,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
     _add_backend(p)
     p.set_defaults(func=cmd_edit)
+
+    for name, func, text in (("proxydural", cmd_proxydural, "N requests for a shape, stacked into one program with "
+                                                           "N sliders (a proxydural model)"),
+                             ("variations", cmd_variations, "a family of variants of one request, one program "
+                                                            "each")):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("shape", help="shape file or example name")
+        if name == "variations":
+            p.add_argument("request", help="the edit request the variants keep")
+        p.add_argument("-n", "--count", type=int, default=5 if name == "proxydural" else 3)
+        p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
+        p.add_argument("--provider", default="offline")
+        p.add_argument("--model")
+        p.add_argument("--api-base")
+        p.add_argument("--samples", type=int, default=5)
+        p.add_argument("--cache", metavar="DIR")
+        _add_backend(p)
+        p.set_defaults(func=func)
 
     p = sub.add_parser("check", help="the relation report of a program on a shape")
     p.add_argument("shape")

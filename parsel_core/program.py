@@ -128,6 +128,26 @@ class Program:
             params.setdefault(p.name, p)
         return Program(self.ops + other.ops, tuple(params.values()), {**self.metadata, **other.metadata})
 
+    def renamed(self, old: str, new: str) -> Program:
+        """The same program with parameter ``old`` called ``new`` (in its amounts too)."""
+        import ast
+        import copy
+        import dataclasses
+
+        from parsel_core.expressions import parse_expression
+
+        class Rename(ast.NodeTransformer):
+            def visit_Name(self, node: ast.Name) -> ast.Name:
+                return ast.copy_location(ast.Name(new if node.id == old else node.id, node.ctx), node)
+
+        def rename(text: str) -> str:  # on a copy: parsed trees are cached and shared
+            return ast.unparse(Rename().visit(copy.deepcopy(parse_expression(text).tree)))
+
+        ops = tuple(dataclasses.replace(op, amount=rename(op.amount)) if old in op.parameters else op
+                    for op in self.ops)
+        params = tuple(dataclasses.replace(p, name=new) if p.name == old else p for p in self.parameters)
+        return Program(ops, params, dict(self.metadata))
+
     def validate(self, shape: ShapeGraph) -> None:
         """Check every operand against the shape; errors name the op and the part."""
         for i, op in enumerate(self.ops):

@@ -138,3 +138,26 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
         state = "kept" if error < tolerance else "broken_on_purpose" if rid in breaks else "broken"
         states.append(RelationState(rid, relation.kind, relation.members, state, error))
     return RelationReport(states, tolerance, samples)
+
+
+def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
+                         samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> dict[str, dict[str, int]]:
+    """State counts with one slider moving at a time, the others at their lower end.
+
+    Stacked programs (proxydural models) are solved one request at a time, so each slider
+    keeps what its own program keeps; moving several at once composes edits whose origins
+    were fixed for the rest shape and can break more.
+    """
+    breaks = set(breaks)
+    tolerance = tolerance_for(shape) if tolerance is None else tolerance
+    sliding = sliding_members(shape, program)
+    out = {}
+    for i, parameter in enumerate(program.parameters):
+        values = {p.name: np.full(samples, p.lo) for p in program.parameters}
+        values[parameter.name] = parameter.samples(samples, seed=i)
+        corners = evaluate(program, shape, values).parts
+        counts = {"kept": 0, "broken_on_purpose": 0, "broken": 0}
+        for rid, error in relation_errors(shape, corners, sliding).items():
+            counts["kept" if error < tolerance else "broken_on_purpose" if rid in breaks else "broken"] += 1
+        out[parameter.name] = counts
+    return out

@@ -134,3 +134,37 @@ def test_edit_not_understood_is_exit_2_with_the_record_kept(tmp_path, capsys):
     assert err.count("\n") == 1 and "fly" in err
     assert sorted(p.name for p in out.iterdir()) == ["record.jsonl"]
     one_line_error(capsys, ["edit", "chair", "-o", str(tmp_path / "none")], "needs a request")
+
+
+def test_proxydural_stacks_one_program_per_request_with_its_own_slider(tmp_path, capsys):
+    out = tmp_path / "proxy"
+    assert main(["proxydural", "chair", "-n", "3", "-o", str(out)]) == 0
+    program = json.loads((out / "program.json").read_text())
+    assert [p["name"] for p in program["parameters"]] == ["x1", "x2", "x3"]
+    report = json.loads((out / "report.json").read_text())
+    assert len(report["requests"]) == 3
+    for name, counts in report["per_slider"].items():
+        assert counts["broken"] == 0, name
+
+
+def test_variations_write_one_program_per_variant(tmp_path):
+    out = tmp_path / "family"
+    assert main(["variations", "chair", "make the chair wider", "-n", "3", "-o", str(out)]) == 0
+    family = json.loads((out / "variations.json").read_text())
+    programs = [v["program"] for v in family["variants"] if "program" in v]
+    assert len(programs) == 3
+    for name in programs:
+        data = json.loads((out / name).read_text())
+        assert data["metadata"]["family"] == "make the chair wider"
+        assert data["ops"][0]["operand"] == "seat"  # every variant keeps the primary edit
+
+
+def test_renaming_a_parameter_renames_it_in_every_amount():
+    from parsel_core.program import Program
+
+    program = Program.from_text("translate(a, dir=(1, 0, 0), amount=0.5 * x)\nscale_3d(b, amount=sin(x))")
+    renamed = program.renamed("x", "x1")
+    assert renamed.parameter_names == ("x1",)
+    assert [op.amount for op in renamed.ops] == ["0.5 * x1", "sin(x1)"]
+    assert program.ops[0].amount == "0.5 * x"  # the original (and the parser's cache) untouched
+    assert Program.from_text("translate(a, dir=(1, 0, 0), amount=0.5 * x)").ops[0].amount == "0.5 * x"

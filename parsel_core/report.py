@@ -85,9 +85,10 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     other = b if member == a else a
     own = np.asarray(corners[member], dtype=float)
     target = np.asarray(corners[other], dtype=float)
+    batch = np.broadcast_shapes(own.shape[:-2], target.shape[:-2])
+    own, target = np.broadcast_to(own, batch + (8, 3)), np.broadcast_to(target, batch + (8, 3))
     rest_uvw = np.asarray(other_weights) @ CORNER_BITS                                  # (k, 3)
     on_boundary = (np.abs(rest_uvw) < 1e-9) | (np.abs(rest_uvw - 1) < 1e-9)
-    batch = own.shape[:-2]
     errors = np.zeros(batch)
     for index in np.ndindex(*batch) if batch else [()]:
         if np.isnan(own[index]).any():

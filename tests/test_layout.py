@@ -88,3 +88,16 @@ def test_group_ops_need_a_group(parsel_shape):
         Program.from_text('change_count(reflect_rails, amount=1)').validate(parsel_shape)
     with pytest.raises(ProgramFormatError, match="mode must be one of"):
         Program.from_text('change_count(slat_row, amount=1, mode="sideways")')
+
+
+def test_sliding_contact_accepts_corners_of_different_batch_shapes(parsel_shape):
+    from parsel_core.report import sliding_error
+
+    relation = parsel_shape.relation("attach_slat_0_rail_back")
+    rest = parsel_shape.rest_corners()
+    moved = np.stack([rest["slat_0"] + (dx, 0, 0) for dx in (0.0, 0.2, 0.5)])
+    corners = {"slat_0": moved, "rail_back": rest["rail_back"][None]}
+    errors = sliding_error(relation, corners, "slat_0")
+    assert errors.shape == (3,)
+    assert errors[0] == pytest.approx(0) and errors[1] == pytest.approx(0)  # slid along the rail's top
+    assert errors[2] > 0  # slid off its end (the rail stops at x = 0.425)

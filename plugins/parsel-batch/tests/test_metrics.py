@@ -24,25 +24,11 @@ from parsel_batch.metrics import (
     validity_accuracy,
     validity_universe,
 )
-from parsel_core.examples import tiny_table
+from parsel_core.examples import WIDEN_TINY_TABLE, tiny_table
 from parsel_core.program import Program
 
 LEGS = ("leg_bl", "leg_br", "leg_fl", "leg_fr")
-# Widen the table by hand: top, mirrored legs, rails and slats (every relation kept).
-DEMO_PROGRAM = """\
-param x in [0, 0.5] default 0.25
-scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)
-translate(leg_br, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_fr, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_bl, dir=(-1, 0, 0), amount=0.45 * x)
-translate(leg_fl, dir=(-1, 0, 0), amount=0.45 * x)
-scale_1d(rail_back, origin=(0, 0.22, -0.25), dir=(1, 0, 0), amount=18 * x / 17)
-scale_1d(rail_front, origin=(0, 0.22, 0.25), dir=(1, 0, 0), amount=18 * x / 17)
-translate(slat_0, dir=(-1, 0, 0), amount=0.3 * 18 * x / 17)
-translate(slat_1, dir=(-1, 0, 0), amount=0.1 * 18 * x / 17)
-translate(slat_2, dir=(1, 0, 0), amount=0.1 * 18 * x / 17)
-translate(slat_3, dir=(1, 0, 0), amount=0.3 * 18 * x / 17)
-"""
+DEMO_PROGRAM = WIDEN_TINY_TABLE  # widen the table by hand: every relation kept
 RAISE_TOP = "translate(top, dir=(0, 1, 0), amount=x)"
 # The top goes up by x; each leg stretches from the floor to meet it (its top is at 0.7).
 RAISE_TOP_STRETCH_LEGS = RAISE_TOP + "\n" + "\n".join(

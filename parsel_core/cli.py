@@ -238,7 +238,7 @@ def parse_seed(text: str):
     lines = [line.strip() for chunk in text.split("\n") for line in chunk.split(";") if line.strip()]
     if not lines:
         raise ParselError("--seed is empty")
-    body = "\n".join(line if line.startswith("param ") else line for line in lines)
+    body = "\n".join(lines)
     return Program.from_text(body, source="--seed")
 
 

@@ -231,17 +231,6 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
-def parse_seed(text: str):
-    """The seed edit: one or more ops in the program text form (separated by ';' or newlines)."""
-    from parsel_core.program import Program
-
-    lines = [line.strip() for chunk in text.split("\n") for line in chunk.split(";") if line.strip()]
-    if not lines:
-        raise ParselError("--seed is empty")
-    body = "\n".join(lines)
-    return Program.from_text(body, source="--seed")
-
-
 def write_outdir(outdir: str, files: dict[str, str]) -> None:
     """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
     import os
@@ -279,6 +268,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from parsel_core.loading import load_shape
     from parsel_core.plugins import get_cas_backend, get_named, solvers
     from parsel_core.report import check_program
+    from parsel_core.textform import seed_from_text
 
     if args.seed is None and not args.request:
         raise ParselError('parsel edit needs a request in words or --seed "<op>" (expert mode)')
@@ -293,7 +283,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     files: dict[str, str] = {}
     inference = None
     if args.seed is not None:
-        seed = parse_seed(args.seed)
+        seed = seed_from_text(args.seed)
         seed.validate(shape)
         metadata.update({"seed": args.seed})
         if args.request:

@@ -177,3 +177,15 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
         return Program(tuple(ops), tuple(params))
     except ProgramFormatError as exc:
         raise ProgramFormatError(f"{source}: {exc}") from None
+
+
+def seed_from_text(text: str, source: str = "--seed"):
+    """A seed edit as users type it: ops separated by ``;`` or newlines, ``param`` lines allowed.
+
+    Read like any program text (a seed without ``param`` lines gets ``x`` in [0, 1]);
+    ``parsel edit --seed`` and batch cases both take seeds this way.
+    """
+    lines = [line.strip() for chunk in text.split("\n") for line in chunk.split(";") if line.strip()]
+    if not lines:
+        raise ProgramFormatError(f"{source}: the seed is empty")
+    return program_from_text("\n".join(lines), source=source)

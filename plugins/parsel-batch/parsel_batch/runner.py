@@ -66,11 +66,10 @@ def _shape(spec: str) -> ShapeGraph:
 def parse_seed(text: str, where: str) -> Program:
     """Seed op text (ops separated by ``;`` or newlines, ``param`` lines allowed) -> a program,
     read like ``parsel edit --seed``: a seed without ``param`` lines gets ``x`` in [0, 1]."""
-    lines = [line.strip() for chunk in text.split("\n") for line in chunk.split(";") if line.strip()]
-    if not lines:
-        raise CaseError(f"{where}: the seed is empty")
+    from parsel_core.textform import seed_from_text
+
     try:
-        return Program.from_text("\n".join(lines), source=where)
+        return seed_from_text(text, source=where)
     except ParselError as exc:
         raise CaseError(str(exc)) from None
 

@@ -272,10 +272,16 @@ def _run_pools(cases: Sequence[Case], defaults: RunDefaults, workers: int, conte
             while not broken and (queue or in_flight):
                 while queue and len(in_flight) < workers:
                     case = queue.popleft()
-                    in_flight[executor.submit(run_case, case, defaults)] = case
-                finished, _ = wait(in_flight, return_when=FIRST_COMPLETED)
-                if any(isinstance(f.exception(), BrokenProcessPool) for f in finished):
-                    broken = True
+                    try:
+                        in_flight[executor.submit(run_case, case, defaults)] = case
+                    except BrokenProcessPool:  # the pool broke since the last wait
+                        queue.appendleft(case)  # it never started, so it is no suspect
+                        broken = True
+                        break
+                if not broken:
+                    finished, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                    broken = any(isinstance(f.exception(), BrokenProcessPool) for f in finished)
+                if broken:
                     finished = wait(in_flight).done  # a broken pool fails every future at once
                 for future in sorted(finished, key=lambda f: in_flight[f].line):
                     case = in_flight.pop(future)

@@ -26,6 +26,9 @@ CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
                   "--use-angle=swiftshader", "--enable-unsafe-swiftshader")
+#: Headless Chromium paces frames to a virtual 60 Hz display; without that pacing a
+#: measured frame rate is what the page and the rasteriser sustain, not the clock's.
+UNPACED_FLAGS = ("--disable-gpu-vsync", "--disable-frame-rate-limit")
 
 _NODE_RUNNER = r"""
 "use strict";
@@ -94,14 +97,18 @@ def browser_problem() -> str | None:
 
 
 @contextmanager
-def chromium_page(width: int = 800, height: int = 600) -> Iterator[Any]:
-    """A Playwright page in a fresh headless Chromium profile, closed afterwards."""
+def chromium_page(width: int = 800, height: int = 600, *, paced: bool = False) -> Iterator[Any]:
+    """A Playwright page in a fresh headless Chromium profile, closed afterwards.
+
+    Frames are drawn as fast as the page asks for them unless ``paced`` (60 Hz, as a
+    display would)."""
     from playwright.sync_api import sync_playwright
 
     with tempfile.TemporaryDirectory(prefix="parsel-view-chromium-") as profile, sync_playwright() as p:
         # Playwright takes the profile directory itself (it refuses --user-data-dir in args).
+        flags = [*CHROMIUM_FLAGS, *(() if paced else UNPACED_FLAGS)]
         context = p.chromium.launch_persistent_context(
-            profile, executable_path=chromium_path(), headless=True, args=list(CHROMIUM_FLAGS),
+            profile, executable_path=chromium_path(), headless=True, args=flags,
             viewport={"width": width, "height": height})
         try:
             page = context.new_page()

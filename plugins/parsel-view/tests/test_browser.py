@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +24,7 @@ from .conftest import CHAIR_PROGRAM
 
 pytestmark = pytest.mark.skipif(browser_problem() is not None, reason=str(browser_problem()))
 
-#: The display refresh headless Chromium paces requestAnimationFrame to.
+#: The frame rate a slider must keep: a common display's refresh.
 REFRESH_HZ = 60.0
 
 
@@ -94,14 +93,14 @@ def test_group_instances_follow_the_slider(row_shape, tmp_path):
 
 
 def test_frame_rate_on_the_bundled_chair(chair):
-    """Sweep the slider for 3 s, one slider step and one frame per animation frame.
+    """Sweep the slider, one slider step and one fully drawn frame per animation frame.
 
-    The page's own work per frame (evaluation, deformation, upload, draw calls) must
-    fit a 60 Hz frame. The presented rate, measured with requestAnimationFrame, is
-    asserted at >= 60 fps (within the 60 Hz pacing's jitter) on hardware WebGL; on the
-    SwiftShader software rasteriser of a headless CI box the pixels are drawn by the
-    CPU, so there the rate is reported rather than asserted, unless
-    PARSEL_STRICT_FPS=1.
+    The browser runs without frame pacing (see ``CHROMIUM_FLAGS``), and every frame reads
+    a pixel back, which waits until the rasteriser has drawn it, so the measured rate is
+    the rate the page sustains, on whatever WebGL the machine has (SwiftShader on a CPU
+    box). It must be >= 60 fps: the median of three 2 s sweeps, so one window disturbed
+    by another process does not decide. The page's own work per frame (evaluation,
+    deformation, upload, draw calls) must fit a 60 Hz frame.
     """
     program = Program.from_text(CHAIR_PROGRAM)
     with PageServer(build_page_data(program, chair), port=0) as server, chromium_page(640, 480) as page:
@@ -109,18 +108,17 @@ def test_frame_rate_on_the_bundled_chair(chair):
         renderer = page.evaluate("""() => { const gl = document.getElementById('view').getContext('webgl2');
             const info = gl.getExtension('WEBGL_debug_renderer_info');
             return info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER); }""")
-        result = page.evaluate("parsel.measureFps(3000, false)")
         updates = page.evaluate("parsel.updates()")
-    software = "swiftshader" in renderer.lower() or "llvmpipe" in renderer.lower()
-    report = (f"chair slider: {result['fps']:.1f} fps presented ({result['frames']} frames in "
-              f"{result['seconds']:.2f} s, "
-              f"median interval {result['medianIntervalMs']:.1f} ms); page work per frame mean "
-              f"{result['meanWorkMs']:.2f} ms, p95 {result['p95WorkMs']:.2f} ms; WebGL: {renderer}")
+        sweeps = [page.evaluate("parsel.measureFps(2000, true)") for _ in range(3)]
+        work = page.evaluate("parsel.measureFps(2000, false)")  # the page's work without waiting on pixels
+        updates = page.evaluate("parsel.updates()") - updates
+    rates = sorted(sweep["fps"] for sweep in sweeps)
+    median = sweeps[[sweep["fps"] for sweep in sweeps].index(rates[1])]
+    report = (f"chair slider: {rates[1]:.1f} fps median of {', '.join(f'{r:.1f}' for r in rates)} "
+              f"(each frame drawn before the next step; median frame {median['medianIntervalMs']:.1f} ms, "
+              f"p95 frame work {median['p95WorkMs']:.1f} ms); page work per frame mean {work['meanWorkMs']:.2f} ms, "
+              f"p95 {work['p95WorkMs']:.2f} ms; WebGL: {renderer}")
     print(report)
-    assert updates >= result["frames"]  # every frame was a slider step
-    assert result["p95WorkMs"] <= 1000 / REFRESH_HZ, report
-    if software and os.environ.get("PARSEL_STRICT_FPS", "") in ("", "0"):
-        if result["fps"] < 0.95 * REFRESH_HZ:
-            warnings.warn(f"software WebGL: {report}", stacklevel=1)
-    else:
-        assert result["fps"] >= 0.95 * REFRESH_HZ, report
+    assert updates == sum(sweep["frames"] for sweep in sweeps) + work["frames"]  # every frame was a slider step
+    assert work["p95WorkMs"] <= 1000 / REFRESH_HZ, report
+    assert rates[1] >= REFRESH_HZ, report

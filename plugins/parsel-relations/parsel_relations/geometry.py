@@ -143,6 +143,28 @@ def intersection_vertices(boxes: Boxes, a: np.ndarray, b: np.ndarray, grow: floa
     return np.concatenate([pa, pb], axis=1), np.concatenate([va, vb], axis=1)
 
 
+def separations(boxes: Boxes, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The largest gap between boxes ``a`` and ``b`` (P pairs) along a separating axis.
+
+    Separating-axis theorem for two oriented boxes: they are disjoint iff their
+    projections are disjoint on one of 15 axes (the 3 + 3 face normals and the 9 cross
+    products of edge directions). The result is positive iff the boxes are disjoint (a
+    lower bound on their distance, exact when a face normal separates them) and <= 0
+    when they touch or overlap (minus the depth along the shallowest of the 15 axes).
+    """
+    a, b = np.atleast_1d(a), np.atleast_1d(b)
+    axes_a, axes_b = boxes.axes[a], boxes.axes[b]  # (P, 3, 3), rows = unit axes
+    crosses = np.cross(axes_a[:, :, None, :], axes_b[:, None, :, :]).reshape(-1, 9, 3)
+    normals = np.concatenate([axes_a, axes_b, crosses], axis=1)  # (P, 15, 3)
+    lengths = np.linalg.norm(normals, axis=2)
+    usable = lengths > 1e-9  # parallel edges give no cross-product axis
+    normals = normals / np.where(usable, lengths, 1.0)[..., None]
+    reach_a = np.einsum("pk,pnk->pn", boxes.halves[a], np.abs(np.einsum("pnj,pkj->pnk", normals, axes_a)))
+    reach_b = np.einsum("pk,pnk->pn", boxes.halves[b], np.abs(np.einsum("pnj,pkj->pnk", normals, axes_b)))
+    offset = np.abs(np.einsum("pnj,pj->pn", normals, boxes.centers[b] - boxes.centers[a]))
+    return np.where(usable, offset - reach_a - reach_b, -np.inf).max(axis=1)
+
+
 def contains(boxes: Boxes, inner: int, outer: int, tol: float) -> bool:
     """Whether box ``inner`` lies inside box ``outer`` grown by ``tol``."""
     corners = boxes.corners[inner]

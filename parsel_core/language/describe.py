@@ -21,13 +21,9 @@ import numpy as np
 
 from parsel_core.errors import ParselError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
+from parsel_core.labels import AXIS_NAMES, position_words
 from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry, RotationSymmetry, TranslationSymmetry
 
-AXIS_NAMES = ("x", "y", "z")
-#: Words for the low and high side of each world axis.
-SIDE_WORDS = (("left", "right"), ("bottom", "top"), ("back", "front"))
-#: An axis along which centres spread less than this fraction of the shape's size is flat.
-SPREAD_FRACTION = 0.02
 _NUMBER = r"-?\d+(?:\.\d+)?(?:e-?\d+)?"
 
 
@@ -51,55 +47,6 @@ def direction_word(vector: Sequence[float]) -> str:
     if abs(abs(v[axis]) - 1.0) < 1e-6:
         return ("+" if v[axis] > 0 else "-") + AXIS_NAMES[axis]
     return _vector_text(v)
-
-
-def _rank_words(axis: int, count: int) -> tuple[str, ...]:
-    low, high = SIDE_WORDS[axis]
-    return {
-        2: (low, high),
-        3: (low, "center", high),
-        4: (low, f"{low}-center", f"{high}-center", high),
-        5: (low, f"{low}-center", "center", f"{high}-center", high),
-    }[count]
-
-
-def position_words(shape: ShapeGraph) -> dict[str, str]:
-    """Where each part sits among the parts that share its label (empty for a lone part).
-
-    Parts in a line get rank words along it (``left``, ``center``, ``right``; more than
-    five get ``3 of 8 along x``); other arrangements get the side of the group's centre
-    along each axis they spread over, in y, z, x order (``front-left``).
-    """
-    by_label: dict[str, list[str]] = defaultdict(list)
-    for pid, part in shape.parts.items():
-        by_label[part.label].append(pid)
-    threshold = SPREAD_FRACTION * max(shape.size, 1e-12)
-    words: dict[str, str] = {pid: "" for pid in shape.parts}
-    for ids in by_label.values():
-        if len(ids) < 2:
-            continue
-        centres = np.array([shape.parts[i].hexahedron.center for i in ids])
-        offsets = centres - centres.mean(axis=0)
-        axes = [a for a in range(3) if np.ptp(offsets[:, a]) > threshold]
-        if not axes:
-            continue
-        if len(axes) == 1:
-            axis = axes[0]
-            order = sorted(range(len(ids)), key=lambda i: (offsets[i, axis], ids[i]))
-            for rank, i in enumerate(order):
-                if len(ids) <= 5:
-                    words[ids[i]] = _rank_words(axis, len(ids))[rank]
-                else:
-                    words[ids[i]] = f"{rank + 1} of {len(ids)} from the {SIDE_WORDS[axis][0]}"
-            continue
-        for i, pid in enumerate(ids):
-            found = []
-            for axis in sorted(axes, key=lambda a: (1, 2, 0).index(a)):
-                reach = float(np.abs(offsets[:, axis]).max())
-                if abs(offsets[i, axis]) > 0.25 * reach:
-                    found.append(SIDE_WORDS[axis][int(offsets[i, axis] > 0)])
-            words[pid] = "-".join(found) or "center"
-    return words
 
 
 def relation_sentence(relation) -> str:

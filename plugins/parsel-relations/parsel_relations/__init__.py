@@ -2,9 +2,9 @@
 
 Registers one ``RelationDetector`` per family (``reflection``, ``translation``,
 ``rotation``, ``attachment``, ``ground``) through ``parsel_relation_detectors``, and
-offers :func:`detect_relations` (all families, conflicts resolved) and, in
-:mod:`parsel_relations.labels`, directional labels and text descriptions of shapes for
-prompts. See docs/relations.md.
+offers :func:`detect_relations` (all families, conflicts resolved). Directional labels
+and the description of a shape for prompts live in the core (:mod:`parsel_core.labels`,
+:mod:`parsel_core.language.describe`). See docs/relations.md.
 """
 
 from __future__ import annotations
@@ -25,14 +25,13 @@ from parsel_relations.detect import (
     detect_relations,
     detectors,
 )
-from parsel_relations.labels import describe_shape, directional_labels
 
 __version__ = "0.1.0"
 
 __all__ = [
     "DEFAULT_RELATIVE_TOLERANCE", "FAMILIES", "AttachmentDetector", "FamilyDetector", "GroundDetector",
-    "ReflectionDetector", "RotationDetector", "TranslationDetector", "absolute_tolerance", "describe_shape",
-    "detect_all", "detect_family", "detect_relations", "detectors", "directional_labels",
+    "ReflectionDetector", "RotationDetector", "TranslationDetector", "absolute_tolerance",
+    "detect_all", "detect_family", "detect_relations", "detectors",
 ]
 
 

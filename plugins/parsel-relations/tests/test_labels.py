@@ -1,10 +1,12 @@
-"""Directional labels and shape descriptions."""
+"""Directional labels and shape descriptions of shapes with detected relations."""
 
 from __future__ import annotations
 
 from parsel_core import ShapeGraph
 from parsel_core.examples import tiny_table
-from parsel_relations import describe_shape, detect_relations, directional_labels
+from parsel_core.labels import directional_labels
+from parsel_core.language import describe_shape
+from parsel_relations import detect_relations
 
 
 def test_tiny_table_labels():
@@ -56,17 +58,17 @@ def test_centre_of_a_grid_and_collisions(shapes):
 
 def test_describe_shape_names_parts_and_relations():
     text = describe_shape(detect_relations(tiny_table()))
-    assert "+x right, +y up, +z front" in text
-    assert "- leg_fl: leg (front-left), size 0.05 x 0.70 x 0.05, centre (-0.45, 0.35, 0.25)" in text
-    assert "leg (back-left) and leg (back-right) mirror each other about the plane x = 0.00" in text
-    assert "form a row of 4 evenly spaced copies, step (0.20, 0.00, 0.00)" in text
-    assert "top and leg (front-left) are attached (point contact)" in text or \
-        "leg (front-left) and top are attached (point contact)" in text
-    assert "leg (front-right) stands on the ground" in text
+    assert "+x is right, +y is up, +z is front" in text
+    assert "- leg_fl: leg, front-left; size 0.050 x 0.700 x 0.050; centre (-0.450, 0.350, 0.250)" in text
+    assert "leg_bl and leg_br mirror each other across the plane x = 0.000" in text
+    assert "slat_0, slat_1, slat_2, slat_3 repeat in a row, 4 copies 0.200 apart along +x" in text
+    assert "(point contact): leg_fl is attached to top" in text or "(point contact): top is attached to leg_fl" in text
+    assert "ground contact: leg_fr stands on the ground" in text
 
 
 def test_describe_rotation_and_bare_shapes(shapes):
     text = describe_shape(detect_relations(shapes.spokes(6)))
-    assert "form a full ring of 6 copies around the y axis" in text and "60 degrees apart" in text
+    assert "repeat around the axis +y" in text and "6 copies 60.0 degrees apart" in text
+    assert "- spoke_0: spoke, 1 of 6;" in text  # more than five: numbered around the ring
     bare = describe_shape(shapes.spokes(3))
-    assert "Relations:" not in bare and "spoke_2" in bare
+    assert "- (none)" in bare and "spoke_2" in bare

@@ -1,4 +1,4 @@
-"""Directional labels and a verbal shape description, for language-model prompts (reference section 1).
+"""Directional labels: words that tell apart parts sharing a label (reference section 1).
 
 Parts that share a label get directional words relative to one another, so a prompt can
 say "the front-left leg" instead of an id. Conventions: +x is right, +y is up, +z is
@@ -19,18 +19,19 @@ front. Words are chosen by arrangement:
 * groups of more than 5 parts get numeric indices ``(1 of 8)`` in order along the row
   (or around the ring).
 
-Words that still collide get an index appended. Labels only help the language model;
-nothing in the engine depends on them.
+Words that still collide get an index appended. Labels only help the language model
+(:mod:`parsel_core.language.describe` puts them in prompts); nothing in the engine
+depends on them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from parsel_core.graph import ShapeGraph
-from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry, RotationSymmetry, TranslationSymmetry
+from parsel_core.relations import RotationSymmetry
 
 SIDE_WORDS = (("left", "right"), ("bottom", "top"), ("back", "front"))
 AXIS_NAMES = ("x", "y", "z")
@@ -174,67 +175,23 @@ def group_words(shape: ShapeGraph, ids: Sequence[str], threshold: float) -> list
     return _unique(side, ids)
 
 
-def directional_labels(shape: ShapeGraph) -> dict[str, str]:
-    """``part id -> label with directional words``, e.g. ``leg (front-left)``; unique labels unchanged."""
+def position_words(shape: ShapeGraph) -> dict[str, str]:
+    """``part id -> directional words`` among the parts sharing its label (``front-left``).
+
+    Empty for a part whose label is unique, or whose group does not spread out.
+    """
     by_label: dict[str, list[str]] = {}
     for pid in sorted(shape.parts):
         by_label.setdefault(shape.parts[pid].label, []).append(pid)
     threshold = SPREAD_FRACTION * shape.size if shape.parts else 0.0
-    out: dict[str, str] = {}
-    for label, ids in by_label.items():
-        if len(ids) == 1:
-            out[ids[0]] = label
-            continue
-        for pid, words in zip(ids, group_words(shape, ids, threshold)):
-            out[pid] = f"{label} ({words})" if words else label
-    return {pid: out[pid] for pid in shape.parts}
+    out = dict.fromkeys(shape.parts, "")
+    for ids in by_label.values():
+        if len(ids) > 1:
+            out.update(zip(ids, group_words(shape, ids, threshold)))
+    return out
 
 
-def _fmt(values: Sequence[float]) -> str:
-    return "(" + ", ".join(f"{v:.2f}" for v in values) + ")"
-
-
-def _names(ids: Sequence[str], labels: Mapping[str, str]) -> str:
-    names = [labels.get(i, i) for i in ids]
-    return ", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]
-
-
-def describe_relation(relation, labels: Mapping[str, str]) -> str:
-    """One relation in words, naming parts by their directional labels."""
-    members = relation.members
-    if isinstance(relation, ReflectionSymmetry):
-        axis = int(np.abs(np.asarray(relation.normal)).argmax())
-        offset = float(np.asarray(relation.origin) @ np.asarray(relation.normal))
-        side = "left-right" if axis == 0 else "top-bottom" if axis == 1 else "front-back"
-        return (f"{_names(members, labels)} mirror each other about the plane {AXIS_NAMES[axis]} = {offset:.2f} "
-                f"({side} symmetry)")
-    if isinstance(relation, TranslationSymmetry):
-        return (f"{_names(members, labels)} form a row of {len(members)} evenly spaced copies, "
-                f"step {_fmt(relation.step)}")
-    if isinstance(relation, RotationSymmetry):
-        shape_word = "a full ring" if relation.closed else "an arc"
-        return (f"{_names(members, labels)} form {shape_word} of {len(members)} copies around the "
-                f"{AXIS_NAMES[_dominant_axis(relation)]} axis through {_fmt(relation.center)}, "
-                f"{abs(np.degrees(relation.angle)):.0f} degrees apart")
-    if isinstance(relation, Attachment):
-        return f"{_names(members, labels)} are attached ({relation.contact} contact)"
-    if isinstance(relation, GroundContact):
-        return f"{_names(members, labels)} stands on the ground"
-    return f"{relation.kind}: {_names(members, labels)}"
-
-
-def describe_shape(shape: ShapeGraph) -> str:
-    """Parts (id, directional label, size, centre) and relations in words, for prompts."""
-    labels = directional_labels(shape)
-    lines = [f"Shape {shape.name!r} with {len(shape.parts)} parts. Axes: +x right, +y up, +z front; "
-             f"sizes are width (x) x height (y) x depth (z) of each part's bounding box."]
-    lines.append("Parts:")
-    for pid, part in shape.parts.items():
-        corners = part.hexahedron.corners
-        size = np.ptp(corners, axis=0)
-        lines.append(f"- {pid}: {labels[pid]}, size {size[0]:.2f} x {size[1]:.2f} x {size[2]:.2f}, "
-                     f"centre {_fmt(part.hexahedron.center)}")
-    if shape.relations:
-        lines.append("Relations:")
-        lines.extend(f"- {describe_relation(r, labels)}" for r in shape.relations.values())
-    return "\n".join(lines)
+def directional_labels(shape: ShapeGraph) -> dict[str, str]:
+    """``part id -> label with directional words``, e.g. ``leg (front-left)``; unique labels unchanged."""
+    words = position_words(shape)
+    return {pid: f"{part.label} ({words[pid]})" if words[pid] else part.label for pid, part in shape.parts.items()}

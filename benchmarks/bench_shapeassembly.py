@@ -27,16 +27,16 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "shapeassembly"
 CATEGORIES = ("chair", "table", "storage")
 
 try:
+    from parsel_shapeassembly.compare import reference_error
     from parsel_shapeassembly.interpreter import ShapeAssemblyError, execute_file
 except ImportError:  # running from a checkout without the plugin installed
     sys.path.insert(0, str(ROOT / "plugins" / "parsel-shapeassembly"))
+    from parsel_shapeassembly.compare import reference_error
     from parsel_shapeassembly.interpreter import ShapeAssemblyError, execute_file
 
 
@@ -61,20 +61,6 @@ class Outcome:
     seconds: float
 
 
-def corner_error(mine: list[np.ndarray], ref: list[np.ndarray]) -> float:
-    """Largest corner deviation of a greedy one-to-one pairing (inf if counts differ)."""
-    if len(mine) != len(ref):
-        return float("inf")
-    unused = list(range(len(ref)))
-    worst = 0.0
-    for corners in mine:
-        errors = [float(np.abs(corners - ref[j]).max()) for j in unused]
-        best = int(np.argmin(errors))
-        worst = max(worst, errors[best])
-        unused.pop(best)
-    return worst
-
-
 def run_job(job: Job, tol: float) -> Outcome:
     start = time.perf_counter()
     try:
@@ -84,9 +70,7 @@ def run_job(job: Job, tol: float) -> Outcome:
     seconds = time.perf_counter() - start
     if job.reference is None:
         return Outcome(job.category, job.program_id, True, None, "", 0.0, seconds)
-    mine = [np.round(c.corners(), 5) for c in program.cuboids]
-    ref = [np.asarray(c, dtype=np.float64) for c in job.reference]
-    worst = corner_error(mine, ref)
+    worst = reference_error(program, job.reference)
     return Outcome(job.category, job.program_id, True, worst <= tol, "", worst, seconds)
 
 

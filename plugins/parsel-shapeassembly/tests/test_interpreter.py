@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from parsel_shapeassembly.compare import corner_error, reference_error
 from parsel_shapeassembly.interpreter import (
     Cuboid,
     DeclaredRelation,
@@ -30,20 +31,6 @@ KNOWN_MISMATCH = {"storage/47272"}
 TOL = 1e-4
 
 
-def _match_sets(mine: list[np.ndarray], ref: list[np.ndarray], tol: float = TOL) -> float:
-    """Largest corner error of a greedy one-to-one matching (inf when counts differ)."""
-    if len(mine) != len(ref):
-        return float("inf")
-    unused = list(range(len(ref)))
-    worst = 0.0
-    for corners in mine:
-        errors = [float(np.abs(corners - ref[j]).max()) for j in unused]
-        best = int(np.argmin(errors))
-        worst = max(worst, errors[best])
-        unused.pop(best)
-    return worst
-
-
 def _run(body: str) -> ExecutedProgram:
     return execute("Assembly Program_0 {\n" + body.strip() + "\n}\n", "test.sa")
 
@@ -57,15 +44,20 @@ def _by_name(program: ExecutedProgram) -> dict[str, Cuboid]:
 # --------------------------------------------------------------------------
 
 
+def test_corner_error_pairs_cuboids_whatever_their_order() -> None:
+    a, b = np.zeros((8, 3)), np.ones((8, 3))
+    assert corner_error([a, b], [b, a]) == 0.0
+    assert corner_error([a, b], [b + 0.1, a - 0.25]) == pytest.approx(0.25)
+    assert corner_error([a], [a, b]) == float("inf")
+
+
 @pytest.mark.parametrize(
     "key",
     [pytest.param(k, marks=pytest.mark.xfail(strict=True)) if k in KNOWN_MISMATCH else k for k in REFERENCE],
 )
 def test_fixture_matches_reference(key: str) -> None:
     program = execute_file(FIXTURES / f"{key}.txt")
-    mine = [np.round(c.corners(), 5) for c in program.cuboids]
-    ref = [np.asarray(c["corners"], dtype=np.float64) for c in REFERENCE[key]]
-    assert _match_sets(mine, ref) <= TOL
+    assert reference_error(program, [c["corners"] for c in REFERENCE[key]]) <= TOL
 
 
 def test_fixture_corner_order_and_listing_order_follow_reference() -> None:

@@ -24,19 +24,10 @@ from parsel_core.loading import load_shape
 from parsel_core.part import Part
 from parsel_core.plugins import deformers, get_cas_backend
 from parsel_core.program import Program, compile_program, evaluate
+from parsel_mesh.examples import CHAIR_ALL_PART_OPS
 
-PART_OPS = """\
-param x in [0, 1] default 0.5
-param y in [-0.5, 0.5] default 0
-scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)
-translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x)
-translate(face('leg.001', 'v-'), dir=(1, 0, 0), amount=0.1 * x ** 2)
-rotate('back_upright.000', origin=(-0.19, 0.45, -0.19), axis=(0, 0, 1), amount=0.3 * sin(x))
-shear('leg.002', origin=(0, 0, 0), normal=(0, 1, 0), dir=(1, 0, 0), amount=-0.2 * y)
-scale_2d(back_rail, origin=(0, 0.83, -0.19), normal=(0, 1, 0), amount=max(x, y) / 2)
-scale_3d('leg.003', origin=(0.19, 0, -0.18), amount=abs(y))
-translate(corner(seat, 'u+v+w+'), dir=(0, 1, 0), amount=0.05 * y)
-"""
+#: Every part op, features and two parameters included.
+PART_OPS = CHAIR_ALL_PART_OPS
 
 
 def dense_chair(target: int) -> ShapeGraph:
@@ -72,7 +63,7 @@ def main() -> None:
     backend = get_cas_backend(args.backend)
     deformer = deformers()["cage"]
     vertices = sum(len(p.mesh.vertices) for p in shape.parts.values())
-    programs = {"part ops (8 ops, 2 params)": Program.from_text(PART_OPS)}
+    programs = {"part ops (10 ops, 2 params)": Program.from_text(PART_OPS)}
     groups = [r for r in shape.relations.values() if r.kind == "translation"]
     if groups:
         g = groups[0]

@@ -7,38 +7,17 @@ import math
 import numpy as np
 import pytest
 
+from parsel_core.examples import WIDEN_TINY_TABLE
 from parsel_core.graph import ShapeGraph
 from parsel_core.relations import RotationSymmetry, TranslationSymmetry
-from parsel_mesh.examples import example_path
+from parsel_mesh.examples import CHAIR_ALL_PART_OPS, example_path
 from parsel_mesh.loaders import load_mesh_shape, shape_from_meshes
 from parsel_mesh.testing import box_mesh
 
 #: Every part op the page implements, features and two parameters included.
-CHAIR_PROGRAM = """\
-param x in [0, 1] default 0.5
-param y in [-0.5, 0.5] default 0
-scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)
-translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x)
-translate(face('leg.001', 'v-'), dir=(1, 0, 0), amount=0.1 * x ** 2)
-rotate('back_upright.000', origin=(-0.19, 0.45, -0.19), axis=(0, 0, 1), amount=0.3 * sin(x))
-shear('leg.002', origin=(0, 0, 0), normal=(0, 1, 0), dir=(1, 0, 0), amount=-0.2 * y)
-scale_2d(back_rail, origin=(0, 0.83, -0.19), normal=(0, 1, 0), amount=max(x, y) / 2)
-scale_3d('leg.003', origin=(0.19, 0, -0.18), amount=abs(y))
-translate(corner(seat, 'u+v+w+'), dir=(0, 1, 0), amount=0.05 * y - -x / e)
-keep_fixed('back_slat.002')
-"""
-
+CHAIR_PROGRAM = CHAIR_ALL_PART_OPS
 #: Widen the tiny table (the core demo's program): parts of hexahedra only, no meshes.
-TABLE_PROGRAM = """\
-param x in [0, 0.5] default 0.25
-scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)
-translate(leg_br, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_fr, dir=(1, 0, 0), amount=0.45 * x)
-translate(leg_bl, dir=(-1, 0, 0), amount=0.45 * x)
-translate(leg_fl, dir=(-1, 0, 0), amount=0.45 * x)
-scale_1d(rail_back, origin=(0, 0.22, -0.25), dir=(1, 0, 0), amount=18 * x / 17)
-scale_1d(rail_front, origin=(0, 0.22, 0.25), dir=(1, 0, 0), amount=18 * x / 17)
-"""
+TABLE_PROGRAM = WIDEN_TINY_TABLE
 
 
 @pytest.fixture(scope="session")

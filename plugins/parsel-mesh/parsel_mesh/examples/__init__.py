@@ -16,3 +16,20 @@ def example_path(name: str) -> Path:
     if name not in NAMES:
         raise KeyError(f"unknown example {name!r}; expected one of {NAMES}")
     return EXAMPLES_DIR / f"{name}.glb"
+
+#: A program on the bundled chair that uses every part op the engine has (features, two
+#: parameters, a kept part): the slider-page tests and the deformation benchmarks drive
+#: the chair with it.
+CHAIR_ALL_PART_OPS = """\
+param x in [0, 1] default 0.5
+param y in [-0.5, 0.5] default 0
+scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)
+translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x)
+translate(face('leg.001', 'v-'), dir=(1, 0, 0), amount=0.1 * x ** 2)
+rotate('back_upright.000', origin=(-0.19, 0.45, -0.19), axis=(0, 0, 1), amount=0.3 * sin(x))
+shear('leg.002', origin=(0, 0, 0), normal=(0, 1, 0), dir=(1, 0, 0), amount=-0.2 * y)
+scale_2d(back_rail, origin=(0, 0.83, -0.19), normal=(0, 1, 0), amount=max(x, y) / 2)
+scale_3d('leg.003', origin=(0.19, 0, -0.18), amount=abs(y))
+translate(corner(seat, 'u+v+w+'), dir=(0, 1, 0), amount=0.05 * y - -x / e)
+keep_fixed('back_slat.002')
+"""

@@ -1,10 +1,12 @@
-"""File helpers: atomic writes, so a failure never leaves half a file behind."""
+"""File helpers: atomic writes, so a failure never leaves half a file behind; JSON reads with one-line errors."""
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from parsel_core.errors import ParselError
 
@@ -36,3 +38,22 @@ def _umask() -> int:
 
 def atomic_write_text(path: Path | str, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def read_json(path: Path | str, what: str = "") -> Any:
+    """The JSON document in ``path``.
+
+    An unreadable file or malformed JSON raises a one-line :class:`ParselError` naming the
+    file (and ``what`` it was meant to hold: ``labels``).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ParselError(f"{path}: cannot read{' ' + what if what else ''}: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not valid JSON: {exc}") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not valid JSON: {exc}") from None

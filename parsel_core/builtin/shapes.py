@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from parsel_core import hookimpl
-from parsel_core.errors import ParselError
 from parsel_core.examples import tiny_table
 from parsel_core.graph import ShapeGraph
 from parsel_core.interfaces import ShapeLoader
+from parsel_core.io import read_json
 
 
 class ShapeJSONLoader(ShapeLoader):
@@ -19,13 +18,7 @@ class ShapeJSONLoader(ShapeLoader):
     extensions = (".shape.json",)
 
     def load(self, path: Path) -> ShapeGraph:
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise ParselError(f"{path}: cannot read: {exc.strerror}") from None
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ParselError(f"{path}: not valid JSON: {exc}") from None
-        return ShapeGraph.from_dict(data, source=str(path))
+        return ShapeGraph.from_dict(read_json(path), source=str(path))
 
 
 @hookimpl

@@ -9,12 +9,12 @@ where the names are not descriptive.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 from parsel_core.errors import ParselError
+from parsel_core.io import read_json
 
 _TRAILING_INDEX = re.compile(r"(?:[\s._\-#]*\d+)+[\s._\-#]*$")
 _INNER_SEPARATORS = re.compile(r"[\s\-]+")
@@ -65,12 +65,7 @@ def read_sidecar(path: Path) -> dict[str, str] | None:
     sidecar = sidecar_path(path)
     if not sidecar.is_file():
         return None
-    try:
-        data = json.loads(sidecar.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ParselError(f"{sidecar}: cannot read labels: {exc.strerror}") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ParselError(f"{sidecar}: labels file is not valid JSON: {exc}") from None
+    data = read_json(sidecar, "labels")
     if not isinstance(data, Mapping):
         raise ParselError(f"{sidecar}: labels file must be a JSON object mapping part names to labels")
     labels = {}

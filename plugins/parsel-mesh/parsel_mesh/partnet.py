@@ -10,13 +10,13 @@ merged into one mesh.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
+from parsel_core.io import read_json
 
 HIERARCHY_FILE = "result_after_merging.json"
 OBJ_DIRS = ("objs", "obj")
@@ -49,12 +49,7 @@ def leaves(node: Mapping[str, Any], where: str) -> Iterator[Mapping[str, Any]]:
 
 def read_hierarchy(path: Path) -> list[Mapping[str, Any]]:
     """The leaf nodes of a PartNet hierarchy file."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ParselError(f"{path}: cannot read: {exc.strerror}") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ParselError(f"{path}: not valid JSON: {exc}") from None
+    data = read_json(path)
     if not isinstance(data, list) or not data:
         raise ParselError(f"{path}: expected a list holding the root node")
     return [leaf for root in data for leaf in leaves(root, str(path))]

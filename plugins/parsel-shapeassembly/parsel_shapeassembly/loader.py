@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +10,7 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import Hexahedron
 from parsel_core.interfaces import ShapeLoader
+from parsel_core.io import read_json
 from parsel_core.part import Part
 from parsel_shapeassembly.interpreter import ShapeAssemblyError, execute
 from parsel_shapeassembly.labels import CATEGORIES, label_parts
@@ -35,10 +35,7 @@ def read_labels_sidecar(path: Path, names: set[str]) -> dict[str, str]:
     sidecar = path.with_name(path.name.split(".")[0] + ".labels.json")
     if not sidecar.exists():
         return {}
-    try:
-        data = json.loads(sidecar.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ParselError(f"{sidecar}: cannot read labels: {exc}") from None
+    data = read_json(sidecar, "labels")
     if not isinstance(data, dict) or not all(isinstance(v, str) for v in data.values()):
         raise ParselError(f"{sidecar}: labels must be a JSON object of part name -> label")
     unknown = sorted(set(data) - names)

@@ -72,6 +72,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import networkx as nx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -157,21 +158,12 @@ class Expected:
 
 
 def _orbits(rows: list[list[str]], leaves: set[str]) -> dict[str, str]:
-    """Union-find over leaves joined by declared symmetries; each leaf -> its orbit's smallest name."""
-    parent = {leaf: leaf for leaf in leaves}
-
-    def find(x: str) -> str:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
+    """Leaves joined by declared symmetries: each leaf -> its orbit's smallest name."""
+    graph = nx.Graph()
+    graph.add_nodes_from(leaves)
     for row in rows:
-        for other in row[1:]:
-            a, b = find(row[0]), find(other)
-            if a != b:
-                parent[max(a, b)] = min(a, b)
-    return {leaf: find(leaf) for leaf in leaves}
+        graph.add_edges_from((row[0], other) for other in row[1:])
+    return {leaf: min(orbit) for orbit in nx.connected_components(graph) for leaf in orbit}
 
 
 def expected_relations(program) -> Expected:

@@ -28,6 +28,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+import networkx as nx
 import numpy as np
 
 from parsel_core.language.describe import PartSummary, ShapeSummary
@@ -222,24 +223,13 @@ class Interpreter:
     def components(self, parts: Sequence[str]) -> list[tuple[str, ...]]:
         """``parts`` split into sets joined by symmetry relations lying wholly inside ``parts``."""
         inside = set(parts)
-        parent = {p: p for p in parts}
-
-        def find(p: str) -> str:
-            while parent[p] != p:
-                parent[p] = parent[parent[p]]
-                p = parent[p]
-            return p
-
+        graph = nx.Graph()
+        graph.add_nodes_from(parts)
         for relation in self.shape.relations.values():
             if relation.kind in ("reflection", "translation", "rotation") and set(relation.members) <= inside \
                     and relation.id not in self.broken:
-                root = find(relation.members[0])
-                for member in relation.members[1:]:
-                    parent[find(member)] = root
-        groups: dict[str, list[str]] = {}
-        for p in sorted(parts):
-            groups.setdefault(find(p), []).append(p)
-        return [tuple(g) for g in sorted(groups.values())]
+                graph.add_edges_from((relation.members[0], member) for member in relation.members[1:])
+        return sorted(tuple(sorted(component)) for component in nx.connected_components(graph))
 
     def bounds(self, parts: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         return (np.min([self.part(p).lo for p in parts], axis=0), np.max([self.part(p).hi for p in parts], axis=0))

@@ -143,8 +143,16 @@ def _part_mesh(shape: ShapeGraph, pid: str) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(part.hexahedron.corners, dtype=float), hexahedron_triangles()
 
 
+def is_closed_volume(vertices: np.ndarray, faces: np.ndarray) -> bool:
+    """Whether a mesh is watertight with consistent, outward winding: its back faces are never seen."""
+    import trimesh
+
+    return bool(trimesh.Trimesh(vertices, faces, process=False).is_volume)
+
+
 def mesh_data(shape: ShapeGraph) -> list[dict[str, Any]]:
-    """Per part: label, colour, cube coordinates of the vertices (float64) and faces (uint32)."""
+    """Per part: label, colour, cube coordinates of the vertices (float64), faces (uint32), and
+    whether the mesh is a closed volume (the page culls back faces of those)."""
     colours = label_colours([p.label for p in shape.parts.values()])
     out = []
     for pid, part in shape.parts.items():
@@ -154,7 +162,7 @@ def mesh_data(shape: ShapeGraph) -> list[dict[str, Any]]:
             raise ParselError(f"shape {shape.name!r}: part {pid!r}: its mesh has no cage coordinates in its "
                               f"hexahedron (a degenerate box?)")
         out.append({"id": pid, "label": part.label, "colour": colours[part.label],
-                    "vertices": len(vertices), "faces": len(faces),
+                    "vertices": len(vertices), "faces": len(faces), "closed": is_closed_volume(vertices, faces),
                     "uvw": b64(uvw, "<f8"), "index": b64(faces, "<u4")})
     return out
 

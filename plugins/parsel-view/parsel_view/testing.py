@@ -45,9 +45,13 @@ const results = JSON.parse(fs.readFileSync(valuesPath, "utf8")).map((values) => 
   for (const pid in evaluation.parts) parts[pid] = plain(evaluation.parts[pid]);
   const instances = {};
   for (const g in evaluation.instances) instances[g] = evaluation.instances[g].map(plain);
-  const vertices = {};
-  for (const item of model.drawList(evaluation)) vertices[item.name] = plain(model.deformInto(item.mesh, item.corners));
-  return { parts, instances, removed: Object.keys(evaluation.removed).sort(), vertices, amounts: evaluation.amounts };
+  const vertices = {}, flipped = [];
+  for (const item of model.drawList(evaluation)) {
+    vertices[item.name] = plain(model.deformInto(item.mesh, item.corners));
+    if (model.flipped(item.mesh, item.corners)) flipped.push(item.name);
+  }
+  return { parts, instances, removed: Object.keys(evaluation.removed).sort(), vertices, amounts: evaluation.amounts,
+           flipped: flipped.sort() };
 });
 process.stdout.write(JSON.stringify(results));
 """
@@ -62,7 +66,8 @@ def node_evaluate(page: PageData, values: Sequence[Mapping[str, float]]) -> list
     """Evaluate the page's program with ``parsel_eval.js`` in Node at each set of ``values``.
 
     Returns per set: ``parts`` (id -> 24 corner numbers, ``None`` for NaN), ``instances``,
-    ``removed``, ``vertices`` (drawn name -> flat float32 positions) and ``amounts``."""
+    ``removed``, ``vertices`` (drawn name -> flat float32 positions), ``amounts`` and
+    ``flipped`` (drawn names whose mesh is mirrored relative to its rest hexahedron)."""
     node = node_path()
     if node is None:
         raise RuntimeError("node is not installed")

@@ -92,6 +92,26 @@ def test_group_instances_follow_the_slider(row_shape, tmp_path):
         assert len(page.evaluate("parsel.names()")) == 4
 
 
+CULLING = """() => { const gl = document.getElementById('view').getContext('webgl2');
+    parsel.drawNow(); return gl.isEnabled(gl.CULL_FACE); }"""
+
+
+def test_back_faces_are_culled_unless_an_edit_mirrors_a_part(chair):
+    """The chair's closed meshes are drawn front faces only; a seat scaled inside out is drawn whole."""
+    program = Program.from_text("param x in [-3, 1] default 0\n"
+                                "scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\n")
+    with PageServer(build_page_data(program, chair), port=0) as server, chromium_page(640, 480) as page:
+        open_page(page, server.url)
+        assert page.evaluate(CULLING) is True
+        page.locator("#slider-x").fill("-2")
+        assert page.evaluate(CULLING) is False
+        seat_x = page_vertices(page, "seat")[:, 0]
+        assert np.ptp(seat_x) == pytest.approx(np.ptp(np.asarray(chair.parts["seat"].mesh.vertices)[:, 0]), rel=1e-3)
+        page.locator("#slider-x").fill("0.5")
+        assert page.evaluate(CULLING) is True
+        assert page.parsel_errors == []
+
+
 def test_frame_rate_on_the_bundled_chair(chair):
     """Sweep the slider, one slider step and one frame per animation frame.
 

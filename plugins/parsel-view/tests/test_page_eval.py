@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from parsel_core.hexahedron import CORNER_BITS
 from parsel_core.program import Program, evaluate
 from parsel_mesh.deform import deformed_vertices
 from parsel_mesh.loaders import shape_from_meshes
@@ -41,6 +42,25 @@ def assert_same(program: Program, shape, values_list, vertex_atol: float = 2e-7)
 def test_every_part_op_on_the_chair(chair):
     program = Program.from_text(CHAIR_PROGRAM)
     assert_same(program, chair, [{"x": 0.0, "y": 0.0}, {"x": 0.37, "y": -0.41}, {"x": 1.0, "y": 0.5}])
+
+
+def triple_product(corners: np.ndarray) -> float:
+    """det of the mean edge vectors along u, v, w (corner k = 4u + 2v + w)."""
+    signs = 2.0 * CORNER_BITS - 1.0  # (8, 3): -1 / +1 per corner and axis
+    return float(np.linalg.det(signs.T @ np.asarray(corners) / 4.0))
+
+
+def test_a_mirroring_edit_is_flagged_so_back_faces_are_drawn(chair):
+    """scale_1d by an amount below -1 turns the seat inside out; other edits keep orientation."""
+    program = Program.from_text("param x in [-3, 1] default 0\n"
+                                "scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\n"
+                                "rotate('leg.000', origin=(0, 0, 0), axis=(0, 1, 0), amount=3 * x)\n")
+    results = assert_same(program, chair, [{"x": 0.5}, {"x": -0.9}, {"x": -2.0}])
+    assert [r["flipped"] for r in results] == [[], [], ["seat"]]
+    # the same test in Python: the sign of the triple product of the mean edge vectors
+    corners = evaluate(program, chair, {"x": -2.0}).parts["seat"]
+    rest = chair.parts["seat"].hexahedron.corners
+    assert triple_product(corners) * triple_product(rest) < 0
 
 
 def test_amounts_evaluate_like_numpy(chair):

@@ -124,9 +124,10 @@
   /* A batch: many meshes in one vertex buffer, drawn with one call (software GL pays per
      draw call, so the page draws all parts at once). positions: Float32Array (n * 3),
      updated in ranges with setPositions; colours (n * 3) and ids (n) are per vertex; an id
-     identifies a mesh for picking and highlighting. `count` indices are drawn. */
+     identifies a mesh for picking and highlighting. `count` indices are drawn; `cull` skips
+     back faces (counter-clockwise triangles face the viewer). */
   Renderer.prototype.addBatch = function (positions, index, colours, ids) {
-    var gl = this.gl, batch = { count: index.length, visible: true, vertices: positions.length / 3 };
+    var gl = this.gl, batch = { count: index.length, visible: true, cull: false, vertices: positions.length / 3 };
     batch.vao = gl.createVertexArray();
     gl.bindVertexArray(batch.vao);
     batch.positions = attribute(gl, this.loc.position, positions, 3, gl.DYNAMIC_DRAW);
@@ -172,6 +173,7 @@
     for (var i = 0; i < this.meshes.length; i++) {
       var batch = this.meshes[i];
       if (!batch.visible || batch.count === 0) continue;
+      if (batch.cull) gl.enable(gl.CULL_FACE); else gl.disable(gl.CULL_FACE);
       gl.bindVertexArray(batch.vao);
       gl.drawElements(gl.TRIANGLES, batch.count, gl.UNSIGNED_INT, 0);
     }

@@ -201,6 +201,20 @@
     return out;
   }
 
+  /* Sign of the triple product of a hexahedron's mean edge vectors along u, v, w (corner
+     k = 4u + 2v + w, 3 numbers each): +1 right-handed, -1 mirrored, 0 flat. */
+  function orientation(c) {
+    var e = [0, 0, 0, 0, 0, 0, 0, 0, 0], k, a, bit;
+    for (k = 0; k < 8; k++) {
+      for (a = 0; a < 3; a++) {
+        bit = (k >> (2 - a)) & 1;
+        for (var i = 0; i < 3; i++) e[3 * a + i] += (bit ? 0.25 : -0.25) * c[3 * k + i];
+      }
+    }
+    var det = e[0] * (e[4] * e[8] - e[5] * e[7]) - e[1] * (e[3] * e[8] - e[5] * e[6]) + e[2] * (e[3] * e[7] - e[4] * e[6]);
+    return det > 0 ? 1 : det < 0 ? -1 : 0;
+  }
+
   /* A program on a shape: evaluate(values) gives corners; deform(...) moves the meshes. */
   function Model(scene, amounts) {
     this.scene = scene;
@@ -215,7 +229,7 @@
       var uvw = decodeBase64(m.uvw, Float64Array);
       this.meshes[m.id] = {
         id: m.id, label: m.label, colour: m.colour, vertexCount: m.vertices,
-        weights: trilinearWeights(uvw), index: decodeBase64(m.index, Uint32Array)
+        weights: trilinearWeights(uvw), index: decodeBase64(m.index, Uint32Array), closed: m.closed === true
       };
     }
     for (var g = 0; g < scene.groups.length; g++) {
@@ -282,6 +296,13 @@
     return out;
   };
 
+  /* Whether a mesh placed in `corners` is mirrored relative to its rest hexahedron: the cage
+     map's Jacobian (taken at the cell centre) changes sign, which turns the mesh's faces
+     inside out, so back-face culling must be off for it. */
+  Model.prototype.flipped = function (meshId, corners) {
+    return orientation(corners) * orientation(this.rest[meshId]) < 0;
+  };
+
   /* What is drawn: [{name, mesh (source part id), corners}], group members replaced by instances
      (named <first member>#<i>, as parsel_mesh.deform names them). */
   Model.prototype.drawList = function (evaluation) {
@@ -298,8 +319,8 @@
   };
 
   var api = {
-    Model: Model, decodeBase64: decodeBase64, trilinearWeights: trilinearWeights, applyOp: applyOp,
-    translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
+    Model: Model, orientation: orientation, decodeBase64: decodeBase64, trilinearWeights: trilinearWeights,
+    applyOp: applyOp, translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
   };
   root.ParselEval = api;
   if (typeof module !== "undefined" && module.exports) module.exports = api;

@@ -52,9 +52,10 @@
 
   /* Copies of meshes in one vertex buffer: slots[i] = {mesh, first vertex, vertex count, id}. */
   function buildBatch(slots) {
-    var model = state.model, vertices = 0, indices = 0, i;
+    var model = state.model, vertices = 0, indices = 0, closed = true, i;
     for (i = 0; i < slots.length; i++) {
       var source = model.meshes[slots[i].mesh];
+      closed = closed && source.closed;
       slots[i].first = vertices;
       slots[i].count = source.vertexCount;
       vertices += source.vertexCount;
@@ -72,7 +73,8 @@
       at += mesh.index.length;
       slot.corners = null;
     }
-    return { batch: state.renderer.addBatch(positions, index, colours, ids), positions: positions, slots: slots };
+    return { batch: state.renderer.addBatch(positions, index, colours, ids), positions: positions, slots: slots,
+      closed: closed };
   }
 
   function buildScene() {
@@ -105,6 +107,15 @@
     state.model.deformInto(slot.mesh, corners, drawn.positions.subarray(3 * slot.first, 3 * (slot.first + slot.count)));
     state.renderer.setPositions(drawn.batch, drawn.positions, slot.first, slot.count);
     slot.corners = Float64Array.from(corners);
+    slot.flipped = state.model.flipped(slot.mesh, corners);
+  }
+
+  /* Back faces of closed meshes are never seen, so the renderer may skip them (half the
+     triangles: what limits a software rasteriser), unless a shown copy is mirrored. */
+  function setCulling(drawn, shown) {
+    var cull = drawn.closed;
+    for (var i = 0; i < shown && cull; i++) cull = !drawn.slots[i].flipped;
+    drawn.batch.cull = cull;
   }
 
   /* One slider step: evaluate the program, move the meshes whose corners changed. */
@@ -112,10 +123,12 @@
     var evaluation = state.model.evaluate(state.values), i, j;
     var slots = state.base.slots;
     for (i = 0; i < slots.length; i++) place(state.base, slots[i], evaluation.parts[slots[i].name]);
+    setCulling(state.base, slots.length);
     for (i = 0; i < state.groups.length; i++) {
       var group = state.groups[i], instances = evaluation.instances[group.id] || [];
       var drawn = groupBatch(group, instances.length);
       for (j = 0; j < instances.length; j++) place(drawn, drawn.slots[j], instances[j]);
+      setCulling(drawn, instances.length);
       var perInstance = state.model.meshes[group.member].index.length;
       drawn.batch.count = instances.length * perInstance;
       group.shown = instances.length;

@@ -91,6 +91,10 @@ FEATURE_POINT_NAMES, FEATURE_POINT_UVW = _feature_point_table()
 FEATURE_POINT_WEIGHTS = cage_weights(FEATURE_POINT_UVW)  # (27, 8), exact in {0, 1/8, 1/4, 1/2, 1}
 
 # Corner permutation that mirrors the cube across the mid-plane of each local axis.
+#: The 6 faces as corner quads, counter-clockwise seen from outside when the frame
+#: (u, v, w) is right-handed; each split in two triangles for meshes.
+FACE_QUADS = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
+FACE_TRIANGLES = np.array([(a, b, c) for a, b, c, _ in FACE_QUADS] + [(a, c, d) for a, _, c, d in FACE_QUADS])
 MIRROR_PERMUTATION = tuple(tuple(k ^ (4 >> axis) for k in range(8)) for axis in range(3))
 
 
@@ -196,6 +200,10 @@ class Hexahedron:
     def volume(self) -> float:
         """Signed volume by the triple product of the mean axes; exact for parallelepipeds."""
         return float(np.linalg.det(self.axis_vectors))
+
+    def triangles(self) -> np.ndarray:
+        """(12, 3) corner indices of the faces, wound outward whatever the frame's handedness."""
+        return FACE_TRIANGLES if self.volume >= 0 else FACE_TRIANGLES[:, ::-1].copy()
 
     def intrinsic_symmetry_planes(self, tol: float = 1e-6) -> list[tuple[np.ndarray, np.ndarray]]:
         """Planes (origin, unit normal) through the centre, normal to a local axis, that map

@@ -97,3 +97,17 @@ def test_canonical_box_matches_axes_to_world_and_mirrors_to_k_xor_4():
     mirror = np.diag([-1.0, 1.0, 1.0])
     b = Hexahedron.canonical_box((-1.0, 0.5, 0.2), (0.2, 1.0, 0.3), tilt @ mirror)
     assert np.allclose(b.corners, (a.corners @ mirror)[[k ^ 4 for k in range(8)]])
+
+
+def _enclosed_volume(corners: np.ndarray, triangles: np.ndarray) -> float:
+    """Signed volume by the divergence theorem: positive when every triangle winds outward."""
+    a, b, c = (corners[triangles[:, i]] for i in range(3))
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+@pytest.mark.parametrize("axes", [np.eye(3), np.diag([-1.0, 1.0, 1.0]), np.array([[0, 0, 1.0], [1, 0, 0], [0, 1, 0]])])
+def test_triangles_wind_outward_for_either_handedness(axes):
+    box = Hexahedron.from_box((0.3, -1.0, 2.0), (1.0, 2.0, 3.0), axes)
+    triangles = box.triangles()
+    assert triangles.shape == (12, 3) and sorted(set(triangles.ravel())) == list(range(8))
+    assert _enclosed_volume(box.corners, triangles) == pytest.approx(6.0)

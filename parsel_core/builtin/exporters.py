@@ -9,12 +9,10 @@ import numpy as np
 
 from parsel_core import hookimpl
 from parsel_core.graph import ShapeGraph
+from parsel_core.hexahedron import FACE_QUADS
 from parsel_core.interfaces import Exporter
 from parsel_core.io import atomic_write_text
 from parsel_core.program import Evaluation
-
-# The 6 quads of a hexahedron in canonical corner order, counter-clockwise seen from outside.
-HEX_QUADS = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
 
 
 def _solid_parts(shape: ShapeGraph, evaluation: Evaluation) -> list[tuple[str, np.ndarray]]:
@@ -50,7 +48,7 @@ class HexahedraOBJExporter(Exporter):
         for pid, corners in _solid_parts(shape, evaluation):
             lines.append(f"o {pid}")
             lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in corners.tolist())
-            lines.extend("f " + " ".join(str(base + k) for k in quad) for quad in HEX_QUADS)
+            lines.extend("f " + " ".join(str(base + k) for k in quad) for quad in FACE_QUADS)
             base += 8
         atomic_write_text(path, "\n".join(lines) + "\n")
 

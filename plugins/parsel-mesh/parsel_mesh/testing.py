@@ -11,10 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.hexahedron import CORNER_BITS
+from parsel_core.hexahedron import CORNER_BITS, FACE_TRIANGLES
 
 #: The 6 faces of a canonical box as quads, counter-clockwise seen from outside.
-BOX_QUADS = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
 
 
 def box_mesh(lo, hi) -> Any:
@@ -22,8 +21,7 @@ def box_mesh(lo, hi) -> Any:
     import trimesh
 
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    faces = [(a, b, c) for a, b, c, _ in BOX_QUADS] + [(a, c, d) for a, _, c, d in BOX_QUADS]
-    return trimesh.Trimesh(vertices=np.where(CORNER_BITS == 1, hi, lo), faces=faces, process=False)
+    return trimesh.Trimesh(vertices=np.where(CORNER_BITS == 1, hi, lo), faces=FACE_TRIANGLES, process=False)
 
 
 def named_scene(meshes: Mapping[str, Any]) -> Any:

@@ -35,7 +35,6 @@ from parsel_remesh.sdf import PartField, part_field
 
 DEFAULT_RESOLUTION = 160
 #: A hexahedron's faces as quads in canonical corner order: the mesh of a part that has none.
-BOX_QUADS = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
 #: Band of exact distances around each surface, in grid cells.
 BAND_CELLS = 3.0
 
@@ -62,8 +61,8 @@ class RemeshResult:
 def _mesh_of(shape: ShapeGraph, pid: str) -> tuple[np.ndarray, np.ndarray]:
     mesh = shape.parts[pid].mesh
     if mesh is None or getattr(mesh, "vertices", None) is None or getattr(mesh, "faces", None) is None:
-        faces = np.array([(a, b, c) for a, b, c, _ in BOX_QUADS] + [(a, c, d) for a, _, c, d in BOX_QUADS])
-        return np.asarray(shape.parts[pid].hexahedron.corners, dtype=float), faces
+        hexahedron = shape.parts[pid].hexahedron
+        return np.asarray(hexahedron.corners, dtype=float), hexahedron.triangles()
     return np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64)
 
 

@@ -44,6 +44,13 @@ def read_labels_sidecar(path: Path, names: set[str]) -> dict[str, str]:
     return data
 
 
+def box_mesh(hexahedron: Hexahedron):
+    """The cuboid as a closed triangle mesh (8 vertices, 12 outward triangles), for export and display."""
+    import trimesh
+
+    return trimesh.Trimesh(hexahedron.corners.copy(), hexahedron.triangles(), process=False)
+
+
 class ShapeAssemblyLoader(ShapeLoader):
     """Programs (``.sa``, or ``.txt`` starting with ``Assembly Program_0``) executed as in the paper."""
 
@@ -76,7 +83,7 @@ class ShapeAssemblyLoader(ShapeLoader):
         category = path.parent.name if path.parent.name in CATEGORIES else None
         labels = label_parts(category, {n: h.corners for n, h in hexahedra.items()})
         labels.update(read_labels_sidecar(path, set(hexahedra)))
-        parts = [Part(name, labels[name], hexahedra[name], name=name) for name in hexahedra]
+        parts = [Part(name, labels[name], h, name=name, mesh=box_mesh(h)) for name, h in hexahedra.items()]
         declared = [{"kind": r.kind, "members": list(r.members), "params": _jsonable(r.params)}
                     for r in executed.relations]
         return ShapeGraph(parts, name=f"{category + '/' if category else ''}{path.stem}", source=str(path),

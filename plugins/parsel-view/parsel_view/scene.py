@@ -138,9 +138,7 @@ def _part_mesh(shape: ShapeGraph, pid: str) -> tuple[np.ndarray, np.ndarray]:
         if faces.ndim != 2 or faces.shape[1] != 3 or len(faces) == 0:
             raise ParselError(f"shape {shape.name!r}: part {pid!r}: mesh has no triangle faces")
         return vertices, faces
-    from parsel_view.geometry import hexahedron_triangles
-
-    return np.asarray(part.hexahedron.corners, dtype=float), hexahedron_triangles()
+    return np.asarray(part.hexahedron.corners, dtype=float), part.hexahedron.triangles().astype(np.int64)
 
 
 def is_closed_volume(vertices: np.ndarray, faces: np.ndarray) -> bool:

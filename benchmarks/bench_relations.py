@@ -57,7 +57,7 @@ attachment
 
 Time is the wall time of ``parsel_relations.detect_all`` on one shape (all families).
 Run: ``python benchmarks/bench_relations.py [--categories chair table] [--limit N]
-[--labels path|leaf] [--misses FILE]``.
+[--labels path|leaf] [--misses FILE] [--data ../shared/data/shapeassembly]``.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ import networkx as nx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = Path("/work/shared/data/shapeassembly")
+DEFAULT_DATA = ROOT.parent / "shared" / "data" / "shapeassembly"
 CATEGORIES = ("chair", "table", "storage")
 KINDS = ("reflection", "translation", "attachment")
 COPY_SUFFIX = re.compile(r"(_ref|_t\d+)(_\d+)?$")
@@ -279,17 +279,17 @@ def score_shape(relations, expected: Expected, shape: ShapeGraph) -> tuple[dict[
     return scores, misses
 
 
-def run(categories, limit: int | None, mode: str, misses_path: Path | None, relative: float) -> None:
+def run(data: Path, categories, limit: int | None, mode: str, misses_path: Path | None, relative: float) -> None:
     all_misses = {}
     print(f"labels: {mode}; tolerance: {relative} x shape diagonal")
     print(f"{'category':<9} {'shapes':>6} {'kind':<12} {'precision':>9} {'p(+sym)':>8} {'p(+bbox)':>8} "
           f"{'p(+contact)':>11} {'recall':>7} {'detected':>8} {'expected':>8} {'median s':>9}")
     for category in categories:
-        ids = (DATA / "splits" / category / "val.txt").read_text().split()[:limit]
+        ids = (data / "splits" / category / "val.txt").read_text().split()[:limit]
         totals = {k: Score() for k in KINDS}
         times = []
         for pid in ids:
-            program = execute_file(DATA / category / f"{pid}.txt")
+            program = execute_file(data / category / f"{pid}.txt")
             shape = shape_of(program, f"{category}/{pid}", mode)
             start = time.perf_counter()
             relations = detect_all(shape, relative * shape.size)
@@ -318,8 +318,9 @@ def main(argv=None) -> int:
     parser.add_argument("--tolerance", type=float, default=DEFAULT_RELATIVE_TOLERANCE,
                         help="relative tolerance (fraction of the shape's diagonal)")
     parser.add_argument("--misses", type=Path, default=None, help="write false positives / negatives as JSON")
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="the ShapeAssembly corpus")
     args = parser.parse_args(argv)
-    run(args.categories, args.limit, args.labels, args.misses, args.tolerance)
+    run(args.data, args.categories, args.limit, args.labels, args.misses, args.tolerance)
     return 0
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -244,7 +245,10 @@ def write_outdir(outdir: str, files: dict[str, str]) -> None:
         raise ParselError(f"{outdir}: parent directory {parent} does not exist")
     if target.exists() and not target.is_dir():
         raise ParselError(f"{outdir}: exists and is not a directory")
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    except OSError as exc:
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
     try:
         for name, text in files.items():
             (staging / name).write_text(text, encoding="utf-8")
@@ -255,6 +259,9 @@ def write_outdir(outdir: str, files: dict[str, str]) -> None:
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(staging, target)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
@@ -460,6 +467,42 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:
+    """Write every file or none: ``write(i, staging_path)`` fills a staging folder beside the
+    files, which are then moved into place; on a failure the ones already moved are removed."""
+    import os
+    import shutil
+    import tempfile
+
+    folder = paths[0].parent
+    if not folder.is_dir():
+        raise ParselError(f"{paths[0]}: directory {folder} does not exist")
+    for path in paths:
+        if path.is_dir():
+            raise ParselError(f"{path}: is a directory")
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=".parsel-", dir=folder))
+    except OSError as exc:
+        raise ParselError(f"{paths[0]}: cannot write: {exc.strerror}") from None
+    moved: list[Path] = []
+    try:
+        for i, path in enumerate(paths):
+            write(i, staging / path.name)
+        for path in paths:
+            os.replace(staging / path.name, path)
+            moved.append(path)
+    except OSError as exc:
+        for path in moved:
+            path.unlink(missing_ok=True)
+        raise ParselError(f"{folder}: cannot write the {len(paths)} files: {exc.strerror}") from None
+    except BaseException:
+        for path in moved:
+            path.unlink(missing_ok=True)
+        raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
 def cmd_apply(args: argparse.Namespace) -> int:
     """Evaluate a program at parameter values and export the edited shape."""
     from pathlib import Path
@@ -474,15 +517,19 @@ def cmd_apply(args: argparse.Namespace) -> int:
     values = program.values(parse_assignments(args.set))
     output = Path(args.output)
     exporter = exporter_for(shape, output)
-    if args.sweep:
+    if args.sweep is not None:
         if args.sweep < 2:
             raise ParselError("--sweep needs at least 2 steps")
+        if not program.parameters:
+            raise ParselError(f"{args.program}: the program has no parameter to sweep")
         name = program.parameters[0]
         suffix = next(ext for ext in exporter.extensions if output.name.lower().endswith(ext))
         stem = output.name[: -len(suffix)]
-        for i, value in enumerate(np.linspace(name.lo, name.hi, args.sweep)):
-            path = output.with_name(f"{stem}_{i:03d}{suffix}")
-            exporter.export(shape, evaluate(program, shape, {**values, name.name: value}), path)
+        paths = [output.with_name(f"{stem}_{i:03d}{suffix}") for i in range(args.sweep)]
+        xs = np.linspace(name.lo, name.hi, args.sweep)
+        write_all(paths, lambda i, path: exporter.export(
+            shape, evaluate(program, shape, {**values, name.name: float(xs[i])}), path))
+        for path in paths:
             print(path)
         return 0
     exporter.export(shape, evaluate(program, shape, values), output)
@@ -594,7 +641,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("inspect", help="list a shape's parts and relations")
     p.add_argument("shape", help="shape file or example name")
     p.add_argument("--json", action="store_true", help="machine-readable output (schema: docs/formats.md)")
-    p.add_argument("--png", metavar="FILE", help="also draw the hexahedra, coloured by label, to FILE")
+    p.add_argument("--png", metavar="FILE",
+                   help="also draw the hexahedra, coloured by label, to FILE (.png, .svg or .pdf)")
     p.add_argument("--no-detect", action="store_true", help="do not run relation detectors")
     p.set_defaults(func=cmd_inspect)
 

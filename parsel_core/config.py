@@ -19,8 +19,14 @@ from parsel_core.errors import ParselError
 PREFERRED_BACKENDS = ("symengine", "sympy")
 
 
+def config_path() -> Path:
+    """The configuration file: ``PARSEL_CONFIG``, else ``parsel.toml`` in the working directory."""
+    return Path(os.environ.get("PARSEL_CONFIG", "parsel.toml"))
+
+
 def load_settings() -> dict[str, Any]:
-    path = Path(os.environ.get("PARSEL_CONFIG", "parsel.toml"))
+    """The ``[parsel]`` table of the configuration file (empty when there is none)."""
+    path = config_path()
     if not path.is_file():
         if "PARSEL_CONFIG" in os.environ:
             raise ParselError(f"{path}: configuration file (PARSEL_CONFIG) does not exist")

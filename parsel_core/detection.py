@@ -16,10 +16,21 @@ DEFAULT_RELATIVE_TOLERANCE = 0.01
 
 
 def relative_tolerance() -> float:
-    """The configured relative tolerance (``relation_tolerance`` in parsel.toml)."""
-    from parsel_core.config import load_settings
+    """The configured relative tolerance (``relation_tolerance`` in the ``[parsel]`` table of parsel.toml)."""
+    import math
 
-    return float(load_settings().get("relation_tolerance", DEFAULT_RELATIVE_TOLERANCE))
+    from parsel_core.config import config_path, load_settings
+    from parsel_core.errors import ParselError
+
+    value = load_settings().get("relation_tolerance", DEFAULT_RELATIVE_TOLERANCE)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = math.nan
+    if isinstance(value, bool) or not math.isfinite(number) or number <= 0:
+        raise ParselError(f"{config_path()}: [parsel] relation_tolerance must be a positive number "
+                          f"(a fraction of the shape's diagonal), got {value!r}")
+    return number
 
 
 def detect_relations(shape: ShapeGraph, tolerance: float | None = None,

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.io import atomic_write_bytes
 from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry
@@ -61,8 +62,18 @@ def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None =
         ax.set_title(title, fontsize=9)
 
 
+#: Picture formats by file suffix.
+PICTURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+
+
 def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np.ndarray] | None = None) -> None:
-    """One picture of the shape with a label legend, written atomically."""
+    """One picture of the shape with a label legend, written atomically; the format follows
+    the suffix (``.png``, ``.svg``, ``.pdf``)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in PICTURE_FORMATS:
+        raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
+                          f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
     import matplotlib
 
     matplotlib.use("Agg")
@@ -78,6 +89,6 @@ def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np
                 Line2D([], [], color="grey", linestyle="--", label="reflection pair")]
     ax.legend(handles=handles, loc="upper left", fontsize=7, frameon=False)
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png")
+    figure.savefig(buffer, format=PICTURE_FORMATS[suffix])
     plt.close(figure)
     atomic_write_bytes(path, buffer.getvalue())

@@ -16,6 +16,8 @@ def atomic_write_bytes(path: Path | str, data: bytes) -> None:
     path = Path(path)
     if not path.parent.is_dir():
         raise ParselError(f"{path}: directory {path.parent} does not exist")
+    if path.is_dir():
+        raise ParselError(f"{path}: is a directory")
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     except OSError as exc:
@@ -25,6 +27,9 @@ def atomic_write_bytes(path: Path | str, data: bytes) -> None:
             handle.write(data)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600 files; give the usual permissions
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise ParselError(f"{path}: cannot write: {exc.strerror}") from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -7,6 +7,7 @@ import pytest
 
 from parsel_core.cli import main
 from parsel_core.examples import tiny_table
+from parsel_core.program import Program
 
 PROGRAM = "param x in [0, 0.5] default 0.2\nscale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)\n"
 
@@ -168,3 +169,45 @@ def test_renaming_a_parameter_renames_it_in_every_amount():
     assert [op.amount for op in renamed.ops] == ["0.5 * x1", "sin(x1)"]
     assert program.ops[0].amount == "0.5 * x"  # the original (and the parser's cache) untouched
     assert Program.from_text("translate(a, dir=(1, 0, 0), amount=0.5 * x)").ops[0].amount == "0.5 * x"
+
+
+def test_apply_output_errors_leave_nothing_behind(files, capsys):
+    tmp, program, shape = files
+    (tmp / "taken.hex.json").mkdir()
+    one_line_error(capsys, ["apply", str(shape), str(program), "-o", str(tmp / "taken.hex.json")], "is a directory")
+    # a sweep writes all its files or none: step 2 of 3 cannot be written
+    (tmp / "s_001.hex.json").mkdir()
+    before = sorted(p.name for p in tmp.iterdir())
+    one_line_error(capsys, ["apply", str(shape), str(program), "--sweep", "3", "-o", str(tmp / "s.hex.json")],
+                   "s_001.hex.json", "is a directory")
+    assert sorted(p.name for p in tmp.iterdir()) == before
+    one_line_error(capsys, ["apply", str(shape), str(program), "--sweep", "0", "-o", str(tmp / "s.hex.json")],
+                   "--sweep needs at least 2")
+    constant = tmp / "constant.json"
+    data = json.loads(Program.from_text(PROGRAM).to_json())
+    data["parameters"], data["ops"][0]["amount"] = [], "0.1"
+    constant.write_text(json.dumps(data))
+    one_line_error(capsys, ["apply", str(shape), str(constant), "--sweep", "2", "-o", str(tmp / "c.hex.json")],
+                   "constant.json", "no parameter to sweep")
+    assert sorted(p.name for p in tmp.iterdir()) == sorted([*before, "constant.json"])
+    # and a sweep that can be written writes every step
+    assert main(["apply", str(shape), str(program), "--sweep", "3", "-o", str(tmp / "ok.hex.json")]) == 0
+    written = [json.loads((tmp / f"ok_{i:03d}.hex.json").read_text()) for i in range(3)]
+    assert [w["parts"]["top"][7][0] for w in written] == pytest.approx([0.5, 0.625, 0.75])  # x = 0, 0.25, 0.5
+
+
+def test_outputs_in_places_that_cannot_be_written(files, capsys, tmp_path):
+    _, program, shape = files
+    one_line_error(capsys, ["edit", "tiny_table", "--seed", "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), "
+                            "amount=x)", "-o", "/proc/parsel-out"], "/proc/parsel-out", "cannot write")
+    one_line_error(capsys, ["inspect", "tiny_table", "--png", str(tmp_path / "x.xyz")], "unknown picture format")
+    assert main(["inspect", "tiny_table", "--png", str(tmp_path / "x.svg")]) == 0
+    assert b"<svg" in (tmp_path / "x.svg").read_bytes()[:1000]
+
+
+@pytest.mark.parametrize("value", ['"abc"', "-1", "nan", "0"])
+def test_a_bad_relation_tolerance_is_named(value, capsys, tmp_path, monkeypatch):
+    config = tmp_path / "parsel.toml"
+    config.write_text(f"[parsel]\nrelation_tolerance = {value}\n")
+    monkeypatch.setenv("PARSEL_CONFIG", str(config))
+    one_line_error(capsys, ["inspect", "chair"], "parsel.toml", "relation_tolerance must be a positive number")

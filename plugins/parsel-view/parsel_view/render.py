@@ -16,13 +16,13 @@ from typing import Any
 
 import numpy as np
 
+from parsel_core.drawing import PICTURE_FORMATS
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.io import atomic_write_bytes
 from parsel_core.program import Evaluation, Program, evaluate
 from parsel_view.geometry import hexahedron_triangles
 
-PICTURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 MAX_FRAMES = 24
 LIGHT = np.array([0.35, 0.85, 0.55]) / np.linalg.norm([0.35, 0.85, 0.55])
 
@@ -102,6 +102,8 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     if not 1 <= frames <= MAX_FRAMES:
         raise ParselError(f"--frames must be between 1 and {MAX_FRAMES}, got {frames}")
     program.validate(shape)
+    if not program.parameters:
+        raise ParselError("the program has no parameter to draw a filmstrip across")
     fixed = program.values(values)
     swept = program.parameter(parameter) if parameter else program.parameters[0]
     xs = np.linspace(swept.lo, swept.hi, frames) if frames > 1 else np.array([fixed[swept.name]])

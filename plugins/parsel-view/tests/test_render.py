@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from PIL import Image
 
 from parsel_core.cli import main
+from parsel_core.errors import ParselError
 from parsel_core.program import Program
 from parsel_view.render import draw_filmstrip, frame_geometry
 
@@ -62,3 +65,10 @@ def test_remeshed_filmstrip(tmp_path):
     program = Program.from_text("translate(top, dir=(0, 1, 0), amount=0.2 * x)")
     draw_filmstrip(shape, program, tmp_path / "s.png", frames=2, remesh=True, remesh_options={"resolution": 40})
     assert (tmp_path / "s.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_program_without_parameters_has_no_filmstrip(chair, tmp_path):
+    program = Program((replace(Program.from_text(CHAIR_PROGRAM).ops[0], amount="0.2"),), ())
+    with pytest.raises(ParselError, match="no parameter to draw a filmstrip across"):
+        draw_filmstrip(chair, program, tmp_path / "strip.png")
+    assert list(tmp_path.iterdir()) == []

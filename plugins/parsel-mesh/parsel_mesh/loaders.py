@@ -148,13 +148,16 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
     """Vertex-data lines shared by all parts, and each part's own lines (``usemtl`` + faces).
 
     Parts are the ``o`` objects, or the ``g`` groups when at least two groups but fewer
-    than two objects have faces. Raises ``ValueError`` when faces belong to no named object or group.
+    than two objects have faces. Raises ``ValueError`` when faces belong to no named object
+    or group, or when a named object has no faces (groups without faces, such as the
+    ``g default`` some exporters write before the vertices, are not parts).
     """
     text = text.replace("\r\n", "\n").replace("\\\n", " ")
     shared: list[str] = []
     faces: list[tuple[str | None, str | None, str | None, str]] = []  # (object, group, material, line)
     counts = {"v": 0, "vt": 0, "vn": 0}
     obj = group = material = None
+    declared: list[str] = []  # object names in file order
     for line in text.split("\n"):
         key, rest = (line.split(None, 1) + ["", ""])[:2]
         rest = rest.strip()
@@ -164,6 +167,8 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
                 counts[key] += 1
         elif key == "o":
             obj = rest or None
+            if obj is not None and obj not in declared:
+                declared.append(obj)
         elif key == "g":
             group = rest or None
         elif key == "usemtl":
@@ -176,6 +181,10 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
         raise ValueError(NO_NAMED_PARTS)
     column = 0 if len(objects) >= 2 or (objects and len(groups) < 2) else 1
     directive = "o" if column == 0 else "g"
+    if column == 0:
+        empty = [name for name in declared if name not in objects]
+        if empty:
+            raise ValueError(f"part {empty[0]!r} has no faces")
     orphans = sum(1 for f in faces if f[column] is None)
     if orphans:
         raise ValueError(f"{orphans} face(s) come before the first '{directive}' line and belong to no part")

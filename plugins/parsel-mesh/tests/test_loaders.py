@@ -362,3 +362,15 @@ def test_partnet_bad_hierarchy(tmp_path, text, fragment):
     (tmp_path / "result_after_merging.json").write_text(text)
     with pytest.raises(ParselError, match=fragment):
         load_mesh_shape(tmp_path)
+
+
+def test_an_obj_object_without_faces_is_an_error_but_an_empty_group_is_not(tmp_path):
+    vertices = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+    path = tmp_path / "empty.obj"
+    path.write_text(vertices + "o seat\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\no leg\n")
+    with pytest.raises(ParselError, match=r"empty.obj: part 'leg' has no faces") as info:
+        load_mesh_shape(path)
+    assert "\n" not in str(info.value)
+    path.write_text("g default\n" + vertices + "g seat\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n"
+                    "g leg\nf 1 3 2\nf 1 4 3\nf 1 2 4\nf 2 3 4\n")
+    assert sorted(load_mesh_shape(path).parts) == ["leg", "seat"]

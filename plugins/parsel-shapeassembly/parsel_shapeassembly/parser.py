@@ -26,6 +26,7 @@ the ``Assembly`` block of the same name.  The first block is the root.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -188,7 +189,10 @@ def _number(ctx: _LineCtx, token: str, what: str) -> float:
     """Parse a finite decimal literal (no ``nan``/``inf``/underscores)."""
     if not _NUMBER_RE.match(token):
         raise ctx.error(f"{what}: expected a number, got {token!r}")
-    return float(token)
+    value = float(token)
+    if not math.isfinite(value):  # a literal too large for a double, 1e400
+        raise ctx.error(f"{what}: {token} is too large")
+    return value
 
 
 def _name(ctx: _LineCtx, token: str, what: str) -> str:

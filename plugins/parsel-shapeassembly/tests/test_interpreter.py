@@ -393,6 +393,7 @@ GOOD_HEADER = "Assembly Program_0 {\n\tbbox = Cuboid(1, 1, 1, True)\n\tcube0 = C
         (GOOD_HEADER + "\tattach(cube0, bbox, 0.5, 0.0, 0.5, 0.5, 0.0)\n}\n", 4, "attach() expects 8 arguments, got 7"),
         (GOOD_HEADER + "\tattach(cube0, bbox, 0.5, x, 0.5, 0.5, 0.0, 0.5)\n}\n", 4, "expected a number, got 'x'"),
         (GOOD_HEADER + "\tattach(cube0, bbox, nan, 0, 0.5, 0.5, 0.0, 0.5)\n}\n", 4, "expected a number"),
+        (GOOD_HEADER + "\tcube1 = Cuboid(1e400, 0.1, 0.1, True)\n}\n", 4, "dimension 1: 1e400 is too large"),
         (GOOD_HEADER + "\tattach(cube9, bbox, 0.5, 0, 0.5, 0.5, 0.0, 0.5)\n}\n", 4, "undefined cuboid 'cube9'"),
         (GOOD_HEADER + "\treflect(cube0, W)\n}\n", 4, "axis must be X, Y or Z"),
         (GOOD_HEADER + "\tsqueeze(cube0, bbox, bbox, up, 0.5, 0.5)\n}\n", 4, "face must be one of"),

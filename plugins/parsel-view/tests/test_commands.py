@@ -128,7 +128,7 @@ def test_a_failed_write_leaves_no_file(outdir, tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(os, "replace", broken_replace)
-    with pytest.raises(OSError):
+    with pytest.raises(ParselError, match="page.html: cannot write: No space left on device"):
         write_html(page, target)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["page.html", "wide"]
     assert target.read_text(encoding="utf-8") == "old page"

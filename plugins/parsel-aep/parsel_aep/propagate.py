@@ -405,25 +405,25 @@ class Propagation:
         scored.sort(key=lambda t: t[:4])
         return [t[-1] for t in scored]
 
-    def amount_text(self, state: _State, screened: Screened, rest, constraints, broken) -> str:
-        """The screened amount's closed form, derived with the CAS (affine candidates)."""
+    def _kept_residual(self, state: _State, rest, constraints, broken):
+        """The symbolic residual of the kept constraints, and its columns in the screened rows."""
         kept = [r for r in constraints if r.id not in broken]
         others = sorted({m for r in kept for m in r.members if m not in rest})
         symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
         residual = symbolic_residual(kept, {**symbolic, **rest})
         columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
                                                                             constraints) if r.id not in broken])
+        return residual, columns
+
+    def amount_text(self, state: _State, screened: Screened, rest, constraints, broken) -> str:
+        """The screened amount's closed form, derived with the CAS (affine candidates)."""
+        residual, columns = self._kept_residual(state, rest, constraints, broken)
         return amount_text(self.backend, affine_amount(self.backend, screened.a[columns], residual))
 
     def closed_form(self, state: _State, screened: Screened, rest, constraints, broken) -> EditOp | None:
         """Derive the winner's amount with the CAS and check it against the screened values."""
         clock = time.perf_counter()
-        kept = [r for r in constraints if r.id not in broken]
-        others = sorted({m for r in kept for m in r.members if m not in rest})
-        symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
-        residual = symbolic_residual(kept, {**symbolic, **rest})
-        columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
-                                                                            constraints) if r.id not in broken])
+        residual, columns = self._kept_residual(state, rest, constraints, broken)
         op = screened.op
         if screened.kind == "affine":
             try:

@@ -9,7 +9,7 @@ are what the loaders read back as part ids.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -53,13 +53,28 @@ def face_colors(mesh: Any) -> np.ndarray:
     return np.tile(color[:4], (len(mesh.faces), 1))
 
 
-def encode_glb(meshes: Mapping[str, Any]) -> bytes:
-    """A GLB scene with one node per part, node and mesh named after it, materials kept."""
+def encode_glb(meshes: Mapping[str, Any], hierarchy: Mapping[str, Sequence[str]] | None = None) -> bytes:
+    """A GLB scene with one node per part, node and mesh named after it, materials kept.
+
+    ``hierarchy`` (part name -> ancestor node names, root first, as the GLB loader records
+    them) puts each part back under its ancestors. Meshes are in world coordinates, so
+    every node's transform is the identity: the grouping is kept, not the local frames.
+    """
     import trimesh
 
+    hierarchy = hierarchy or {}
     scene = trimesh.Scene()
-    for name, mesh in meshes.items():
-        scene.add_geometry(mesh, node_name=name, geom_name=name)
+    known = {scene.graph.base_frame}
+    ordered = sorted(meshes, key=lambda name: len(hierarchy.get(name, ())))  # ancestors before descendants
+    for name in ordered:
+        parent = scene.graph.base_frame
+        for ancestor in hierarchy.get(name, ()):
+            if ancestor not in known:
+                scene.graph.update(frame_from=parent, frame_to=ancestor, matrix=np.eye(4))
+                known.add(ancestor)
+            parent = ancestor
+        scene.add_geometry(meshes[name], node_name=name, geom_name=name, parent_node_name=parent)
+        known.add(name)
     return scene.export(file_type="glb")
 
 
@@ -109,6 +124,13 @@ def encode_ply(meshes: Mapping[str, Any], title: str = "") -> bytes:
     return ("\n".join(header) + "\n").encode("ascii", errors="replace") + all_vertices.tobytes() + all_faces.tobytes()
 
 
+def glb_hierarchy(shape: ShapeGraph, meshes: Mapping[str, Any]) -> dict[str, list[str]]:
+    """Each exported mesh's ancestors from the loaded scene; a group instance (``member#i``)
+    goes where its member was."""
+    loaded = shape.metadata.get("hierarchy", {}) if shape.metadata else {}
+    return {name: list(loaded[name.split("#")[0]]) for name in meshes if name.split("#")[0] in loaded}
+
+
 class MeshExporter(Exporter):
     """Deformed part meshes to one file; subclasses choose the encoding."""
 
@@ -138,7 +160,7 @@ class GLBExporter(MeshExporter):
     extensions = (".glb",)
 
     def encode(self, shape, meshes):
-        return encode_glb(meshes)
+        return encode_glb(meshes, glb_hierarchy(shape, meshes))
 
 
 class OBJExporter(MeshExporter):

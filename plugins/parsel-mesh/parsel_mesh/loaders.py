@@ -100,6 +100,8 @@ def read_scene(path: Path) -> NamedMeshes:
 
     A node is named by its own name, or its geometry's when the node's was made up by the
     reader; a scene whose names are all made up (one unnamed mesh) has no named parts.
+    The names of a node's ancestors (root first) go to ``mesh.metadata["parents"]``, so the
+    hierarchy can be written back (:func:`parsel_mesh.exporters.encode_glb`).
     """
     import trimesh
 
@@ -108,6 +110,7 @@ def read_scene(path: Path) -> NamedMeshes:
     except Exception as exc:  # trimesh raises many types for malformed files
         raise _read_failure(path, path.suffix.lower().lstrip(".").upper(), exc) from None
     out: NamedMeshes = []
+    parent_of = scene.graph.transforms.parents
     for node in scene.graph.nodes_geometry:
         transform, geometry_name = scene.graph[node]
         geometry = scene.geometry.get(geometry_name)
@@ -118,6 +121,11 @@ def read_scene(path: Path) -> NamedMeshes:
         mesh = geometry.copy()
         if not np.array_equal(transform, np.eye(4)):
             mesh.apply_transform(transform)
+        parents, at = [], parent_of.get(node)
+        while at is not None and at != scene.graph.base_frame:
+            parents.insert(0, str(at))
+            at = parent_of.get(at)
+        mesh.metadata["parents"] = parents
         out.append((str(name), mesh))
     if not out or all(is_generated_name(n, path) for n, _ in out):
         raise ParselError(f"{path}: {NO_NAMED_PARTS} (a single unnamed mesh cannot be edited by part)")
@@ -386,8 +394,12 @@ def assemble(path: Path, meshes: NamedMeshes, defaults: Mapping[str, str], kind:
     resolved = path.resolve()  # "." has no name to derive a sidecar or a shape name from
     labels = resolve_labels(names, read_sidecar(resolved), source=str(sidecar_path(resolved)), defaults=defaults)
     stem = resolved.name if resolved.is_dir() else resolved.stem
-    return shape_from_meshes(meshes, name=stem, source=str(path), labels=labels,
-                             metadata={"format": kind, "loader": "parsel-mesh"})
+    metadata: dict[str, Any] = {"format": kind, "loader": "parsel-mesh"}
+    hierarchy = {name: list(mesh.metadata.get("parents", [])) for name, mesh in meshes
+                 if getattr(mesh, "metadata", None) and mesh.metadata.get("parents")}
+    if hierarchy:
+        metadata["hierarchy"] = hierarchy  # part id -> names of its ancestor nodes, root first
+    return shape_from_meshes(meshes, name=stem, source=str(path), labels=labels, metadata=metadata)
 
 
 class MeshLoader(ShapeLoader):

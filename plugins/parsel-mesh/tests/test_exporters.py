@@ -141,3 +141,36 @@ def test_files_are_written_atomically(chair, tmp_path, monkeypatch, exporter):
 
 def test_exporters_share_one_base(chair):
     assert all(isinstance(e, MeshExporter) for e in (GLBExporter(), OBJExporter(), PLYExporter()))
+
+
+def test_glb_export_keeps_the_node_hierarchy(tmp_path):
+    """chair -> {seat, legs -> {leg.000, leg.001}}, the legs group moved by its node transform."""
+    import trimesh
+
+    from parsel_mesh.testing import box_mesh
+
+    scene = trimesh.Scene()
+    scene.graph.update(frame_from=scene.graph.base_frame, frame_to="chair", matrix=np.eye(4))
+    moved = trimesh.transformations.translation_matrix((0, 0, 0.5))
+    scene.graph.update(frame_from="chair", frame_to="legs", matrix=moved)
+    scene.add_geometry(box_mesh((-0.5, 0.4, 0), (0.5, 0.5, 1)), node_name="seat", geom_name="seat",
+                       parent_node_name="chair")
+    for i, x in enumerate((-0.4, 0.3)):
+        scene.add_geometry(box_mesh((x, 0, -0.1), (x + 0.1, 0.4, 0.1)), node_name=f"leg.00{i}", geom_name=f"leg.00{i}",
+                           parent_node_name="legs")
+    source = tmp_path / "chair.glb"
+    source.write_bytes(scene.export(file_type="glb"))
+    shape = load_mesh_shape(source)
+    legs = ["chair", "legs"]
+    assert shape.metadata["hierarchy"] == {"seat": ["chair"], "leg.000": legs, "leg.001": legs}
+    np.testing.assert_allclose(shape.parts["leg.000"].mesh.bounds, [(-0.4, 0, 0.4), (-0.3, 0.4, 0.6)])  # node moved it
+    program = Program.from_text("param x in [0, 1] default 0\ntranslate('leg.000', dir=(1, 0, 0), amount=x)\n")
+    out = tmp_path / "edited.glb"
+    GLBExporter().export(shape, evaluate(program, shape, {"x": 0.2}), out)
+    back = trimesh.load(out, force="scene")
+    parents = back.graph.transforms.parents
+    assert parents["seat"] == "chair" and parents["leg.000"] == parents["leg.001"] == "legs"
+    assert parents["legs"] == "chair" and parents["chair"] == back.graph.base_frame
+    reloaded = load_mesh_shape(out)
+    assert reloaded.metadata["hierarchy"] == shape.metadata["hierarchy"]
+    np.testing.assert_allclose(reloaded.parts["leg.000"].mesh.bounds, [(-0.2, 0, 0.4), (-0.1, 0.4, 0.6)], atol=1e-6)

@@ -255,7 +255,12 @@ def write_outdir(outdir: str, files: dict[str, str]) -> None:
         if target.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
             os.replace(target, old / "previous")
-            os.replace(staging, target)
+            try:
+                os.replace(staging, target)
+            except BaseException:
+                os.replace(old / "previous", target)  # put the previous OUTDIR back
+                shutil.rmtree(old, ignore_errors=True)
+                raise
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(staging, target)
@@ -469,7 +474,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:
     """Write every file or none: ``write(i, staging_path)`` fills a staging folder beside the
-    files, which are then moved into place; on a failure the ones already moved are removed."""
+    files, which are then moved into place, files they replace set aside; on a failure the
+    new files are removed and the old ones put back."""
     import os
     import shutil
     import tempfile
@@ -484,20 +490,35 @@ def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:
         staging = Path(tempfile.mkdtemp(prefix=".parsel-", dir=folder))
     except OSError as exc:
         raise ParselError(f"{paths[0]}: cannot write: {exc.strerror}") from None
+    new, old = staging / "new", staging / "old"
     moved: list[Path] = []
+    kept: list[Path] = []  # targets whose previous file was set aside in ``old``
+    current = paths[0]
+
+    def roll_back() -> None:
+        for path in moved:
+            path.unlink(missing_ok=True)
+        for path in kept:
+            os.replace(old / path.name, path)
+
     try:
+        new.mkdir()
+        old.mkdir()
         for i, path in enumerate(paths):
-            write(i, staging / path.name)
+            current = path
+            write(i, new / path.name)
         for path in paths:
-            os.replace(staging / path.name, path)
+            current = path
+            if path.exists():
+                os.replace(path, old / path.name)
+                kept.append(path)
+            os.replace(new / path.name, path)
             moved.append(path)
     except OSError as exc:
-        for path in moved:
-            path.unlink(missing_ok=True)
-        raise ParselError(f"{folder}: cannot write the {len(paths)} files: {exc.strerror}") from None
+        roll_back()
+        raise ParselError(f"{current}: cannot write: {exc.strerror}") from None
     except BaseException:
-        for path in moved:
-            path.unlink(missing_ok=True)
+        roll_back()
         raise
     finally:
         shutil.rmtree(staging, ignore_errors=True)

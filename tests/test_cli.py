@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from parsel_core.cli import main
+from parsel_core.errors import ParselError
 from parsel_core.examples import tiny_table
 from parsel_core.program import Program
 
@@ -211,3 +212,44 @@ def test_a_bad_relation_tolerance_is_named(value, capsys, tmp_path, monkeypatch)
     config.write_text(f"[parsel]\nrelation_tolerance = {value}\n")
     monkeypatch.setenv("PARSEL_CONFIG", str(config))
     one_line_error(capsys, ["inspect", "chair"], "parsel.toml", "relation_tolerance must be a positive number")
+
+
+def failing_on_call(monkeypatch, n: int) -> None:
+    """Make the n-th os.replace from now fail as a full disk would."""
+    import os
+
+    real, calls = os.replace, []
+
+    def replace(src, dst):
+        calls.append(dst)
+        if len(calls) == n:
+            raise OSError(28, "No space left on device")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+
+
+def test_a_sweep_that_fails_midway_keeps_the_previous_files(files, capsys, monkeypatch):
+    tmp, program, shape = files
+    argv = ["apply", str(shape), str(program), "--sweep", "3", "-o", str(tmp / "out.hex.json")]
+    assert main(argv) == 0
+    outputs = [tmp / f"out_{i:03d}.hex.json" for i in range(3)]
+    for path in outputs:
+        path.write_text("previous run")
+    before = sorted(p.name for p in tmp.iterdir())
+    failing_on_call(monkeypatch, 7)  # 3 staged writes; set aside 0, move 0, set aside 1; moving 1 fails
+    one_line_error(capsys, argv, "out_001.hex.json: cannot write: No space left on device")
+    assert sorted(p.name for p in tmp.iterdir()) == before
+    assert [p.read_text() for p in outputs] == ["previous run"] * 3
+
+
+def test_a_failed_outdir_swap_keeps_the_previous_outdir(tmp_path, monkeypatch):
+    from parsel_core.cli import write_outdir
+
+    target = tmp_path / "out"
+    write_outdir(str(target), {"a.txt": "old"})
+    failing_on_call(monkeypatch, 2)  # the previous OUTDIR is set aside, then the new one cannot take its place
+    with pytest.raises(ParselError, match="out: cannot write: No space left on device"):
+        write_outdir(str(target), {"a.txt": "new"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert (target / "a.txt").read_text() == "old"

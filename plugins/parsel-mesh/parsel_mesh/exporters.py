@@ -126,9 +126,27 @@ def encode_ply(meshes: Mapping[str, Any], title: str = "") -> bytes:
 
 def glb_hierarchy(shape: ShapeGraph, meshes: Mapping[str, Any]) -> dict[str, list[str]]:
     """Each exported mesh's ancestors from the loaded scene; a group instance (``member#i``)
-    goes where its member was."""
+    goes where its member was.
+
+    Only consistent paths are kept: an ancestor that is itself an exported part must sit
+    at that place in its own path, and no part is its own ancestor (a part named after
+    its mesh can share a name with a node above it). A part whose path is not consistent
+    is written at the top level rather than lost or moved under another part.
+    """
     loaded = shape.metadata.get("hierarchy", {}) if shape.metadata else {}
-    return {name: list(loaded[name.split("#")[0]]) for name in meshes if name.split("#")[0] in loaded}
+    wanted: dict[str, list[str]] = {}
+    for name in meshes:
+        source = name if name in loaded else name.split("#")[0]
+        if source in loaded:
+            wanted[name] = list(loaded[source])
+
+    while True:  # dropping one path can make a descendant's path inconsistent: repeat until stable
+        kept = {name: parents for name, parents in wanted.items() if name not in parents and all(
+            ancestor not in meshes or wanted.get(ancestor, []) == parents[:depth]
+            for depth, ancestor in enumerate(parents))}
+        if kept == wanted:
+            return kept
+        wanted = kept
 
 
 class MeshExporter(Exporter):

@@ -174,3 +174,39 @@ def test_glb_export_keeps_the_node_hierarchy(tmp_path):
     reloaded = load_mesh_shape(out)
     assert reloaded.metadata["hierarchy"] == shape.metadata["hierarchy"]
     np.testing.assert_allclose(reloaded.parts["leg.000"].mesh.bounds, [(-0.2, 0, 0.4), (-0.1, 0.4, 0.6)], atol=1e-6)
+
+
+@pytest.mark.parametrize(("loaded", "names", "kept"), [
+    ({"seat": ["root"], "cushion": ["root", "seat"]}, ["seat", "cushion"],
+     {"seat": ["root"], "cushion": ["root", "seat"]}),  # a part under another part
+    ({"legs": ["legs"], "seat": []}, ["legs", "seat"], {"seat": []}),  # named after its mesh, like its parent node
+    ({"seat": ["root"], "cushion": ["root", "x", "seat"]}, ["seat", "cushion"], {"seat": ["root"]}),  # a second 'seat'
+    ({"seat": ["seat"], "cushion": ["seat"]}, ["seat", "cushion"], {}),  # dropping one path drops its descendants'
+    ({"leg#1": ["legs"]}, ["leg#1"], {"leg#1": ["legs"]}),  # a part whose own name has '#'
+    ({"slat": ["back"]}, ["slat#0", "slat#1"], {"slat#0": ["back"], "slat#1": ["back"]}),  # group instances
+])
+def test_glb_hierarchy_keeps_only_consistent_paths(loaded, names, kept):
+    from types import SimpleNamespace
+
+    from parsel_mesh.exporters import glb_hierarchy
+
+    assert glb_hierarchy(SimpleNamespace(metadata={"hierarchy": loaded}), dict.fromkeys(names)) == kept
+
+
+def test_a_part_named_like_its_parent_node_is_not_lost(tmp_path):
+    import trimesh
+
+    from parsel_mesh.testing import box_mesh
+
+    scene = trimesh.Scene()
+    scene.graph.update(frame_from=scene.graph.base_frame, frame_to="legs", matrix=np.eye(4))
+    scene.add_geometry(box_mesh((0, 0, 0), (0.1, 0.4, 0.1)), node_name="geometry_5", geom_name="legs",
+                       parent_node_name="legs")
+    scene.add_geometry(box_mesh((-0.5, 0.4, -0.5), (0.5, 0.5, 0.5)), node_name="seat", geom_name="seat")
+    source = tmp_path / "odd.glb"
+    source.write_bytes(scene.export(file_type="glb"))
+    shape = load_mesh_shape(source)
+    assert sorted(shape.parts) == ["legs", "seat"]
+    out = tmp_path / "out.glb"
+    GLBExporter().export(shape, None, out)
+    assert sorted(load_mesh_shape(out).parts) == ["legs", "seat"]

@@ -62,3 +62,6 @@ def read_json(path: Path | str, what: str = "") -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ParselError(f"{path}: {what + ' file is ' if what else ''}not valid JSON: {exc}") from None
+    except (ValueError, RecursionError) as exc:  # a number too long to convert, nesting too deep
+        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not usable JSON: "
+                          f"{' '.join(str(exc).split()) or type(exc).__name__}") from None

@@ -178,7 +178,8 @@ def group_words(shape: ShapeGraph, ids: Sequence[str], threshold: float) -> list
 def position_words(shape: ShapeGraph) -> dict[str, str]:
     """``part id -> directional words`` among the parts sharing its label (``front-left``).
 
-    Empty for a part whose label is unique, or whose group does not spread out.
+    Empty for a part whose label is unique; parts that share a label but do not spread
+    out (stacked in one place) are numbered ``1``, ``2``, ...
     """
     by_label: dict[str, list[str]] = {}
     for pid in sorted(shape.parts):

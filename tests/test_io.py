@@ -40,3 +40,11 @@ def test_atomic_write_replaces_whole_files_only(tmp_path):
     with pytest.raises(ParselError):
         atomic_write_text(tmp_path / "no-such-dir" / "out.txt", "x")
     assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]
+
+
+def test_read_json_refuses_unusable_documents_in_one_line(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ParselError, match="deep.json: not usable JSON") as caught:
+        read_json(path)
+    assert "\n" not in str(caught.value)

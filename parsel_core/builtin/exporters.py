@@ -9,7 +9,7 @@ import numpy as np
 
 from parsel_core import hookimpl
 from parsel_core.graph import ShapeGraph
-from parsel_core.hexahedron import FACE_QUADS
+from parsel_core.hexahedron import FACE_QUADS, Hexahedron
 from parsel_core.interfaces import Exporter
 from parsel_core.io import atomic_write_text
 from parsel_core.program import Evaluation
@@ -48,7 +48,9 @@ class HexahedraOBJExporter(Exporter):
         for pid, corners in _solid_parts(shape, evaluation):
             lines.append(f"o {pid}")
             lines.extend(f"v {x!r} {y!r} {z!r}" for x, y, z in corners.tolist())
-            lines.extend("f " + " ".join(str(base + k) for k in quad) for quad in FACE_QUADS)
+            mirrored = Hexahedron(corners).volume < 0  # a mirrored frame: reverse the quads to face outward
+            lines.extend("f " + " ".join(str(base + k) for k in (quad[::-1] if mirrored else quad))
+                         for quad in FACE_QUADS)
             base += 8
         atomic_write_text(path, "\n".join(lines) + "\n")
 

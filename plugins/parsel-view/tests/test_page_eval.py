@@ -44,23 +44,34 @@ def test_every_part_op_on_the_chair(chair):
     assert_same(program, chair, [{"x": 0.0, "y": 0.0}, {"x": 0.37, "y": -0.41}, {"x": 1.0, "y": 0.5}])
 
 
-def triple_product(corners: np.ndarray) -> float:
-    """det of the mean edge vectors along u, v, w (corner k = 4u + 2v + w)."""
-    signs = 2.0 * CORNER_BITS - 1.0  # (8, 3): -1 / +1 per corner and axis
-    return float(np.linalg.det(signs.T @ np.asarray(corners) / 4.0))
+def jacobian_signs(corners: np.ndarray) -> list[float]:
+    """Signs of the cage map's Jacobian at the 8 corners (edges leaving each) and the centre."""
+    c = np.asarray(corners)
+    signs = []
+    for k in range(8):
+        edges = [c[k | bit] - c[k & ~bit] for bit in (4, 2, 1)]  # corner k = 4u + 2v + w
+        signs.append(float(np.sign(np.linalg.det(edges))))
+    centre = (2.0 * CORNER_BITS - 1.0).T @ c / 4.0  # mean edge vectors along u, v, w
+    return [*signs, float(np.sign(np.linalg.det(centre)))]
 
 
-def test_a_mirroring_edit_is_flagged_so_back_faces_are_drawn(chair):
-    """scale_1d by an amount below -1 turns the seat inside out; other edits keep orientation."""
+def test_a_mirroring_or_folding_edit_is_flagged_so_back_faces_are_drawn(chair):
+    """scale_1d by an amount below -1 turns the seat inside out; pushing a corner of a leg past
+    its neighbours folds part of it; rotations keep orientation."""
     program = Program.from_text("param x in [-3, 1] default 0\n"
                                 "scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\n"
-                                "rotate('leg.000', origin=(0, 0, 0), axis=(0, 1, 0), amount=3 * x)\n")
-    results = assert_same(program, chair, [{"x": 0.5}, {"x": -0.9}, {"x": -2.0}])
-    assert [r["flipped"] for r in results] == [[], [], ["seat"]]
-    # the same test in Python: the sign of the triple product of the mean edge vectors
-    corners = evaluate(program, chair, {"x": -2.0}).parts["seat"]
-    rest = chair.parts["seat"].hexahedron.corners
-    assert triple_product(corners) * triple_product(rest) < 0
+                                "rotate('leg.000', origin=(0, 0, 0), axis=(0, 1, 0), amount=3 * x)\n"
+                                "translate(corner('leg.001', 'u+v+w+'), dir=(0, -1, 0), amount=-x)\n")
+    values = [{"x": 0.5}, {"x": -0.3}, {"x": -0.6}, {"x": -2.0}]
+    results = assert_same(program, chair, values)
+    # the same test in Python: some Jacobian sign differs from the rest sign
+    expected = []
+    for v in values:
+        edited = evaluate(program, chair, v).parts
+        expected.append(sorted(pid for pid in ("seat", "leg.000", "leg.001") if set(jacobian_signs(edited[pid]))
+                               != {jacobian_signs(chair.parts[pid].hexahedron.corners)[8]}))
+    assert [r["flipped"] for r in results] == expected
+    assert expected == [[], [], ["leg.001"], ["leg.001", "seat"]]
 
 
 def test_amounts_evaluate_like_numpy(chair):

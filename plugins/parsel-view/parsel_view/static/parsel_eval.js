@@ -201,18 +201,40 @@
     return out;
   }
 
-  /* Sign of the triple product of a hexahedron's mean edge vectors along u, v, w (corner
-     k = 4u + 2v + w, 3 numbers each): +1 right-handed, -1 mirrored, 0 flat. */
-  function orientation(c) {
-    var e = [0, 0, 0, 0, 0, 0, 0, 0, 0], k, a, bit;
+  function det3(e) {
+    return e[0] * (e[4] * e[8] - e[5] * e[7]) - e[1] * (e[3] * e[8] - e[5] * e[6]) + e[2] * (e[3] * e[7] - e[4] * e[6]);
+  }
+
+  /* The signs of the cage map's Jacobian determinant at the 8 corners and the centre of a
+     hexahedron (corner k = 4u + 2v + w, 3 numbers each). At corner k the derivatives are
+     the three edges leaving it (taken from the low to the high end); at the centre, the
+     mean edges. A box gives nine equal signs; an edit that folds a corner past its
+     neighbours flips some of them. */
+  function orientations(c) {
+    var signs = [], e, k, a, i, lo, hi, bit;
+    for (k = 0; k < 8; k++) {
+      e = [];
+      for (a = 0; a < 3; a++) {
+        bit = 4 >> a;
+        lo = k & ~bit; hi = k | bit;
+        for (i = 0; i < 3; i++) e.push(c[3 * hi + i] - c[3 * lo + i]);
+      }
+      signs.push(Math.sign(det3(e)));
+    }
+    e = [0, 0, 0, 0, 0, 0, 0, 0, 0];
     for (k = 0; k < 8; k++) {
       for (a = 0; a < 3; a++) {
         bit = (k >> (2 - a)) & 1;
-        for (var i = 0; i < 3; i++) e[3 * a + i] += (bit ? 0.25 : -0.25) * c[3 * k + i];
+        for (i = 0; i < 3; i++) e[3 * a + i] += (bit ? 0.25 : -0.25) * c[3 * k + i];
       }
     }
-    var det = e[0] * (e[4] * e[8] - e[5] * e[7]) - e[1] * (e[3] * e[8] - e[5] * e[6]) + e[2] * (e[3] * e[7] - e[4] * e[6]);
-    return det > 0 ? 1 : det < 0 ? -1 : 0;
+    signs.push(Math.sign(det3(e)));
+    return signs;
+  }
+
+  /* +1 right-handed, -1 mirrored: the sign at the centre (0 flat). */
+  function orientation(c) {
+    return orientations(c)[8];
   }
 
   /* A program on a shape: evaluate(values) gives corners; deform(...) moves the meshes. */
@@ -296,11 +318,13 @@
     return out;
   };
 
-  /* Whether a mesh placed in `corners` is mirrored relative to its rest hexahedron: the cage
-     map's Jacobian (taken at the cell centre) changes sign, which turns the mesh's faces
-     inside out, so back-face culling must be off for it. */
+  /* Whether a mesh placed in `corners` may be turned (partly) inside out relative to its rest
+     hexahedron: the cage map's Jacobian at a corner or the centre has another sign than at
+     rest, or vanishes. Back faces of such a mesh can show, so culling must be off for it. */
   Model.prototype.flipped = function (meshId, corners) {
-    return orientation(corners) * orientation(this.rest[meshId]) < 0;
+    var rest = orientation(this.rest[meshId]), now = orientations(corners);
+    for (var i = 0; i < now.length; i++) if (now[i] !== rest) return true;
+    return false;
   };
 
   /* What is drawn: [{name, mesh (source part id), corners}], group members replaced by instances
@@ -319,8 +343,8 @@
   };
 
   var api = {
-    Model: Model, orientation: orientation, decodeBase64: decodeBase64, trilinearWeights: trilinearWeights,
-    applyOp: applyOp, translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
+    Model: Model, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
+    trilinearWeights: trilinearWeights, applyOp: applyOp, translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
   };
   root.ParselEval = api;
   if (typeof module !== "undefined" && module.exports) module.exports = api;

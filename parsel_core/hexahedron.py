@@ -90,12 +90,28 @@ def _feature_point_table() -> tuple[tuple[str, ...], np.ndarray]:
 FEATURE_POINT_NAMES, FEATURE_POINT_UVW = _feature_point_table()
 FEATURE_POINT_WEIGHTS = cage_weights(FEATURE_POINT_UVW)  # (27, 8), exact in {0, 1/8, 1/4, 1/2, 1}
 
-# Corner permutation that mirrors the cube across the mid-plane of each local axis.
 #: The 6 faces as corner quads, counter-clockwise seen from outside when the frame
 #: (u, v, w) is right-handed; each split in two triangles for meshes.
 FACE_QUADS = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
 FACE_TRIANGLES = np.array([(a, b, c) for a, b, c, _ in FACE_QUADS] + [(a, c, d) for a, _, c, d in FACE_QUADS])
+
+# Corner permutation that mirrors the cube across the mid-plane of each local axis.
 MIRROR_PERMUTATION = tuple(tuple(k ^ (4 >> axis) for k in range(8)) for axis in range(3))
+
+
+def corner_jacobians(corners: np.ndarray) -> np.ndarray:
+    """The cage map's Jacobian determinant at each corner of hexahedra (..., 8, 3) -> (..., 8).
+
+    At corner k the derivatives along u, v, w are the three edges leaving it, each taken
+    from its low to its high end. A right-handed box gives 8 positive values (its volume);
+    a corner pushed past its neighbours, or a mirrored frame, turns some negative.
+    """
+    corners = np.asarray(corners, dtype=float)
+    out = []
+    for k in range(8):
+        edges = [corners[..., k | bit, :] - corners[..., k & ~bit, :] for bit in (4, 2, 1)]
+        out.append(np.linalg.det(np.stack(edges, axis=-2)))
+    return np.stack(out, axis=-1)
 
 
 @dataclass(frozen=True)

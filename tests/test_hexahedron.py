@@ -11,6 +11,7 @@ from parsel_core.hexahedron import (
     FEATURE_POINT_NAMES,
     Hexahedron,
     canonical_feature_name,
+    corner_jacobians,
     feature_corners,
 )
 
@@ -111,3 +112,16 @@ def test_triangles_wind_outward_for_either_handedness(axes):
     triangles = box.triangles()
     assert triangles.shape == (12, 3) and sorted(set(triangles.ravel())) == list(range(8))
     assert _enclosed_volume(box.corners, triangles) == pytest.approx(6.0)
+
+
+def test_corner_jacobians_of_boxes_mirrors_and_folds():
+    box = Hexahedron.from_box((0.0, 0.0, 0.0), (1.0, 2.0, 3.0))
+    np.testing.assert_allclose(corner_jacobians(box.corners), np.full(8, 6.0))
+    mirrored = Hexahedron.from_box((0.0, 0.0, 0.0), (1.0, 2.0, 3.0), np.diag([-1.0, 1.0, 1.0]))
+    np.testing.assert_allclose(corner_jacobians(mirrored.corners), np.full(8, -6.0))
+    folded = box.corners.copy()
+    folded[7, 1] -= 3.0  # corner u+v+w+ pushed below its v- neighbour (2 lower): its v edge points down
+    jacobians = corner_jacobians(folded)
+    assert jacobians[7] == pytest.approx(1.0 * -1.0 * 3.0) and np.all(jacobians[:3] > 0)
+    # batched: (samples, 8, 3) -> (samples, 8)
+    assert corner_jacobians(np.stack([box.corners, mirrored.corners])).shape == (2, 8)

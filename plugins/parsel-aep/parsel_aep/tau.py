@@ -10,31 +10,17 @@ import numpy as np
 
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
+from parsel_core.hexahedron import corner_jacobians
 from parsel_core.program import Parameter, Program, evaluate
 
 #: A hexahedron whose smallest side or volume shrinks below this fraction counts as collapsed.
 COLLAPSE = 0.05
 
-# For each corner, the three corners along +-u, +-v, +-w: the local frame whose
-# orientation must not flip.
-_FRAMES = [(k, k ^ 4, k ^ 2, k ^ 1) for k in range(8)]
-
-
-def corner_orientations(corners: np.ndarray) -> np.ndarray:
-    """Signed volume of the frame at each corner (..., 8), sign-normalised by corner parity."""
-    out = []
-    for k, a, b, c in _FRAMES:
-        frame = np.stack([corners[..., a, :] - corners[..., k, :], corners[..., b, :] - corners[..., k, :],
-                          corners[..., c, :] - corners[..., k, :]], axis=-2)
-        parity = (-1) ** (bin(k).count("1"))
-        out.append(parity * np.linalg.det(frame))
-    return np.stack(out, axis=-1)
-
-
 def degenerate(rest: np.ndarray, edited: np.ndarray) -> np.ndarray:
-    """Which samples (...,) of an edited hexahedron are flipped or collapsed."""
-    orientation = corner_orientations(edited)
-    rest_orientation = corner_orientations(rest)
+    """Which samples (...,) of an edited hexahedron are flipped or collapsed (the frame at a
+    corner turned inside out, or shrunk below COLLAPSE of its rest volume)."""
+    orientation = corner_jacobians(edited)
+    rest_orientation = corner_jacobians(rest)
     flipped = np.any(orientation * np.sign(rest_orientation) <= COLLAPSE * np.abs(rest_orientation), axis=-1)
     return flipped
 

@@ -67,7 +67,7 @@ def node_evaluate(page: PageData, values: Sequence[Mapping[str, float]]) -> list
 
     Returns per set: ``parts`` (id -> 24 corner numbers, ``None`` for NaN), ``instances``,
     ``removed``, ``vertices`` (drawn name -> flat float32 positions), ``amounts`` and
-    ``flipped`` (drawn names whose mesh is mirrored relative to its rest hexahedron)."""
+    ``flipped`` (drawn names whose mesh an edit mirrors or folds, ``Model.flipped``)."""
     node = node_path()
     if node is None:
         raise RuntimeError("node is not installed")

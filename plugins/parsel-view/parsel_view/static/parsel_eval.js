@@ -206,29 +206,26 @@
   }
 
   /* The signs of the cage map's Jacobian determinant at the 8 corners and the centre of a
-     hexahedron (corner k = 4u + 2v + w, 3 numbers each). At corner k the derivatives are
-     the three edges leaving it (taken from the low to the high end); at the centre, the
-     mean edges. A box gives nine equal signs; an edit that folds a corner past its
-     neighbours flips some of them. */
+     hexahedron (corner k = 4u + 2v + w, 3 numbers each), as parsel_core.hexahedron's
+     corner_jacobians and Hexahedron.volume give them. At corner k the derivatives are the
+     three edges leaving it (taken from the low to the high end); at the centre, the mean
+     edges (every edge leaves two corners, so the mean is the sum over corners / 8). A box
+     gives nine equal signs; an edit that folds a corner past its neighbours flips some. */
   function orientations(c) {
-    var signs = [], e, k, a, i, lo, hi, bit;
+    var signs = [], mean = [0, 0, 0, 0, 0, 0, 0, 0, 0], e, k, a, i, bit, d;
     for (k = 0; k < 8; k++) {
       e = [];
       for (a = 0; a < 3; a++) {
         bit = 4 >> a;
-        lo = k & ~bit; hi = k | bit;
-        for (i = 0; i < 3; i++) e.push(c[3 * hi + i] - c[3 * lo + i]);
+        for (i = 0; i < 3; i++) {
+          d = c[3 * (k | bit) + i] - c[3 * (k & ~bit) + i];
+          e.push(d);
+          mean[3 * a + i] += d / 8;
+        }
       }
       signs.push(Math.sign(det3(e)));
     }
-    e = [0, 0, 0, 0, 0, 0, 0, 0, 0];
-    for (k = 0; k < 8; k++) {
-      for (a = 0; a < 3; a++) {
-        bit = (k >> (2 - a)) & 1;
-        for (i = 0; i < 3; i++) e[3 * a + i] += (bit ? 0.25 : -0.25) * c[3 * k + i];
-      }
-    }
-    signs.push(Math.sign(det3(e)));
+    signs.push(Math.sign(det3(mean)));
     return signs;
   }
 
@@ -344,7 +341,8 @@
 
   var api = {
     Model: Model, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
-    trilinearWeights: trilinearWeights, applyOp: applyOp, translationLayout: translationLayout, rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
+    trilinearWeights: trilinearWeights, applyOp: applyOp, translationLayout: translationLayout,
+    rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
   };
   root.ParselEval = api;
   if (typeof module !== "undefined" && module.exports) module.exports = api;

@@ -111,7 +111,7 @@
   }
 
   /* Back faces of closed meshes are never seen, so the renderer may skip them (half the
-     triangles: what limits a software rasteriser), unless a shown copy is mirrored. */
+     triangles: what limits a software rasteriser), unless a shown copy is mirrored or folded. */
   function setCulling(drawn, shown) {
     var cull = drawn.closed;
     for (var i = 0; i < shown && cull; i++) cull = !drawn.slots[i].flipped;

@@ -66,14 +66,20 @@ def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None =
 PICTURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
 
-def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np.ndarray] | None = None) -> None:
-    """One picture of the shape with a label legend, written atomically; the format follows
-    the suffix (``.png``, ``.svg``, ``.pdf``)."""
-    path = Path(path)
+def picture_format(path: Path) -> str:
+    """The matplotlib format a picture file's suffix asks for; an unknown suffix is an error."""
     suffix = path.suffix.lower()
     if suffix not in PICTURE_FORMATS:
         raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
                           f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
+    return PICTURE_FORMATS[suffix]
+
+
+def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np.ndarray] | None = None) -> None:
+    """One picture of the shape with a label legend, written atomically; the format follows
+    the suffix (``.png``, ``.svg``, ``.pdf``)."""
+    path = Path(path)
+    fmt = picture_format(path)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -89,6 +95,6 @@ def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np
                 Line2D([], [], color="grey", linestyle="--", label="reflection pair")]
     ax.legend(handles=handles, loc="upper left", fontsize=7, frameon=False)
     buffer = io.BytesIO()
-    figure.savefig(buffer, format=PICTURE_FORMATS[suffix])
+    figure.savefig(buffer, format=fmt)
     plt.close(figure)
     atomic_write_bytes(path, buffer.getvalue())

@@ -41,15 +41,14 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw a filmstrip of SHAPE edited by PROGRAM across a parameter's range."""
+    from parsel_core.drawing import picture_format
     from parsel_core.errors import ParselError
     from parsel_core.loading import load_program, load_shape, parse_assignments
     from parsel_view.inputs import program_path
-    from parsel_view.render import PICTURE_FORMATS, draw_filmstrip
+    from parsel_view.render import draw_filmstrip
 
     output = Path(args.output)
-    if output.suffix.lower() not in PICTURE_FORMATS:  # before loading anything: fail fast on a typo
-        raise ParselError(f"{output}: unknown picture format {output.suffix.lower() or '(none)'!r} "
-                          f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
+    picture_format(output)  # before loading anything: fail fast on a typo
     if not output.parent.is_dir():
         raise ParselError(f"{output}: output directory {output.parent} does not exist")
     path = program_path(args.program)

@@ -16,12 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.drawing import PICTURE_FORMATS
+from parsel_core.drawing import picture_format
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
+from parsel_core.hexahedron import FACE_TRIANGLES
 from parsel_core.io import atomic_write_bytes
 from parsel_core.program import Evaluation, Program, evaluate
-from parsel_view.geometry import hexahedron_triangles
 
 MAX_FRAMES = 24
 LIGHT = np.array([0.35, 0.85, 0.55]) / np.linalg.norm([0.35, 0.85, 0.55])
@@ -60,7 +60,7 @@ def frame_geometry(shape: ShapeGraph, evaluation: Evaluation, remesh: bool = Fal
             triangles.append(vertices[faces])
             labels += [part.label] * len(faces)
     else:
-        faces = hexahedron_triangles()
+        faces = FACE_TRIANGLES
         replaced = {m for g in evaluation.instances for m in shape.relation(g).members}
         for pid, part in shape.parts.items():
             if pid not in replaced:
@@ -91,10 +91,7 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     its format comes from the suffix (``.png``, ``.svg``, ``.pdf``).
     """
     path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in PICTURE_FORMATS:
-        raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
-                          f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
+    fmt = picture_format(path)
     if path.is_dir():
         raise ParselError(f"{path}: is a directory")
     if not path.parent.is_dir():
@@ -144,7 +141,7 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     figure.suptitle(f"{shape.name}{' (watertight remesh)' if remesh else ''}", fontsize=10)
     figure.subplots_adjust(left=0, right=1, top=0.88, bottom=0.1, wspace=0)
     buffer = io.BytesIO()
-    figure.savefig(buffer, format=PICTURE_FORMATS[suffix])
+    figure.savefig(buffer, format=fmt)
     plt.close(figure)
     atomic_write_bytes(path, buffer.getvalue())
     return path

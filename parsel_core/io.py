@@ -52,16 +52,17 @@ def read_json(path: Path | str, what: str = "") -> Any:
     file (and ``what`` it was meant to hold: ``labels``).
     """
     path = Path(path)
+    file_is = f"{what} file is " if what else ""
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ParselError(f"{path}: cannot read{' ' + what if what else ''}: {exc.strerror}") from None
     except UnicodeDecodeError as exc:
-        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not valid JSON: {exc}") from None
+        raise ParselError(f"{path}: {file_is}not valid JSON: {exc}") from None
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not valid JSON: {exc}") from None
+        raise ParselError(f"{path}: {file_is}not valid JSON: {exc}") from None
     except (ValueError, RecursionError) as exc:  # a number too long to convert, nesting too deep
-        raise ParselError(f"{path}: {what + ' file is ' if what else ''}not usable JSON: "
-                          f"{' '.join(str(exc).split()) or type(exc).__name__}") from None
+        raise ParselError(f"{path}: {file_is}not usable JSON: {' '.join(str(exc).split()) or type(exc).__name__}") \
+            from None

@@ -15,7 +15,10 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
+from collections import Counter
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +28,10 @@ from parsel_core.loading import load_shape
 from parsel_core.plugins import get_cas_backend, solvers
 from parsel_core.program import Program, compile_program
 from parsel_core.report import check_program
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from designer_seeds import designer_seeds  # noqa: E402
+from parsel_aep.candidates import candidate_family  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CATEGORIES = ("chair", "table", "storage")
@@ -36,7 +43,7 @@ def sample_programs(data: Path, count: int, seed: int = 0) -> list[Path]:
     out = []
     for category, n in zip(CATEGORIES, per):
         ids = (data / "splits" / category / "val.txt").read_text().split()
-        out += [data / category / f"{i}.txt" for i in rng.choice(ids, size=n, replace=False)]
+        out += [data / category / f"{i}.txt" for i in rng.choice(ids, size=min(n, len(ids)), replace=False)]
     return out
 
 
@@ -61,57 +68,192 @@ def seeds_for(shape) -> list[str]:
     ]
 
 
+RELATION_KINDS = ("attachment-point", "attachment-line", "attachment-face", "attachment-volume", "ground",
+                  "reflection", "translation", "rotation")
+
+
+def relation_kind(relation) -> str:
+    """The loss table's kind: attachments by contact, other relations by their kind."""
+    return f"attachment-{relation.contact}" if relation.kind == "attachment" else relation.kind
+
+
+@dataclass
+class Case:
+    shape: object
+    kind: str
+    seed: str
+    breaks: tuple[str, ...] = ()
+
+
+@dataclass
+class Outcome:
+    case: Case
+    kept: int = 0
+    total: int = 0
+    seconds: float = 0.0
+    crashed: str | None = None
+    losses: list[tuple[str, str, str]] = field(default_factory=list)  # (relation kind, op family, reason)
+    program: Program | None = None
+
+
+def run_case(case: Case, options: dict) -> Outcome:
+    """Solve one case and check it: kept relations over those that hold at rest."""
+    aep = solvers()["aep"]
+    outcome = Outcome(case)
+    try:
+        request = SolveRequest(case.shape, Program.from_text(case.seed), breaks=case.breaks, options=options)
+        clock = time.process_time()
+        result = aep.run(request)
+        outcome.seconds = time.process_time() - clock
+        report = check_program(case.shape, result.program, breaks=case.breaks)
+    except Exception as exc:  # a benchmark reports crashes instead of stopping
+        outcome.crashed = f"{type(exc).__name__}: {exc}"
+        return outcome
+    outcome.program = result.program
+    losses = result.stats.get("losses", {})
+    for state in report.relations:
+        if state.state == "broken_on_purpose":
+            continue
+        outcome.total += 1
+        if state.state == "kept":
+            outcome.kept += 1
+            continue
+        relation = case.shape.relations[state.id]
+        reason, part = losses.get(state.id, ("final-check", None))
+        outcome.losses.append((relation_kind(relation), op_family(case.shape, result.program, part, relation), reason))
+    return outcome
+
+
+def op_family(shape, program: Program, part: str | None, relation) -> str:
+    """The op family of the part that broke a relation: the one the solver names, else the
+    last member the program edits (directly or through its group's virtual parent)."""
+    members = [part] if part else list(relation.members)
+    for member in reversed(members):
+        operands = {member, *shape.groups_of(member)} if member in shape.parts else {member}
+        ops = [op for op in program.ops if op.operand in operands]
+        if ops:
+            return "+".join(sorted({candidate_family(op) if op.acts_on == "part" else op.name for op in ops}))
+    return "unedited"
+
+
+def summarise(outcomes: list[Outcome]) -> tuple[float, float, int, int]:
+    """Kept share, share of cases keeping everything, crashes, cases."""
+    done = [o for o in outcomes if o.crashed is None]
+    kept = sum(o.kept for o in done) / max(1, sum(o.total for o in done))
+    whole = sum(o.kept == o.total for o in done) / max(1, len(done))
+    return kept, whole, len(outcomes) - len(done), len(outcomes)
+
+
+def print_groups(title: str, outcomes: list[Outcome], key) -> None:
+    groups: dict[str, list[Outcome]] = {}
+    for o in outcomes:
+        groups.setdefault(key(o), []).append(o)
+    print(f"\n{title:<22}{'cases':>7}{'kept':>9}{'all kept':>10}{'crashes':>9}{'median s':>10}")
+    for name in sorted(groups) + ["all"]:
+        chosen = outcomes if name == "all" else groups[name]
+        kept, whole, crashes, n = summarise(chosen)
+        times = [o.seconds for o in chosen if o.crashed is None] or [0.0]
+        print(f"{name:<22}{n:>7}{kept:>9.2%}{whole:>10.1%}{crashes:>9}{statistics.median(times):>10.3f}")
+
+
+def print_losses(outcomes: list[Outcome]) -> None:
+    """Every relation not kept: its kind, the op family that broke it and why."""
+    rows = Counter(loss for o in outcomes for loss in o.losses)
+    total = sum(rows.values())
+    print(f"\n{total} relations not kept")
+    if not rows:
+        return
+    print(f"{'relation kind':<20}{'op family':<26}{'reason':<22}{'count':>7}")
+    for (kind, family, reason), n in rows.most_common():
+        print(f"{kind:<20}{family[:25]:<26}{reason:<22}{n:>7}")
+    for label, index in (("by reason", 2), ("by relation kind", 0)):
+        counts = Counter()
+        for row, n in rows.items():
+            counts[row[index]] += n
+        print(f"{label}: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
+    crashes = [o for o in outcomes if o.crashed]
+    for o in crashes[:10]:
+        print(f"  crash {o.case.shape.name} {o.case.kind}: {o.crashed[:200]}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--shapes", type=int, default=100)
+    parser.add_argument("--shapes", type=int, default=100, help="val shapes for the random seeds")
+    parser.add_argument("--designer-shapes", type=int, default=60,
+                        help="val shapes for the designer seeds (0: every val shape)")
     parser.add_argument("--data", type=Path, default=ROOT.parent / "shared" / "data" / "shapeassembly")
     parser.add_argument("--backends", default="symengine,sympy")
     parser.add_argument("--slider-requests", type=int, default=10)
+    parser.add_argument("--skip", default="", help="comma-separated parts to skip: random,designer,ablation,slider")
+    parser.add_argument("--verbose", action="store_true", help="print every case that loses a relation")
     args = parser.parse_args()
-    aep = solvers()["aep"]
-    paths = sample_programs(args.data, args.shapes)
-    started = time.perf_counter()
-    shapes = [load_shape(str(p)) for p in paths]
-    load_time = time.perf_counter() - started
-    requests = [(shape, seed) for shape in shapes for seed in seeds_for(shape)]
-    mix = ", ".join(f"{sum(s.metadata.get('category') == c for s in shapes)} {c}" for c in CATEGORIES)
-    print(f"{len(shapes)} shapes ({mix}), "
-          f"{len(requests)} requests; parts per shape: median {statistics.median(len(s.parts) for s in shapes):.0f}, "
-          f"max {max(len(s.parts) for s in shapes)}; relations: median "
-          f"{statistics.median(len(s.relations) for s in shapes):.0f}, max {max(len(s.relations) for s in shapes)}; "
-          f"loading + detection {load_time:.1f} s")
-    rows = []
-    programs = {}
-    for backend in args.backends.split(","):
-        get_cas_backend(backend)
-        times, screened, kept, total, failures = [], 0, 0, 0, 0
-        for i, (shape, seed) in enumerate(requests):
-            request = SolveRequest(shape, Program.from_text(seed), options={"backend": backend})
-            clock = time.perf_counter()
-            try:
-                result = aep.run(request)
-            except Exception as exc:  # recorded, not fatal: a benchmark reports failures
-                failures += 1
-                print(f"  {backend}: {shape.name}: {type(exc).__name__}: {exc}")
+    skip = set(filter(None, args.skip.split(",")))
+    backends = args.backends.split(",")
+    programs: dict[int, Program] = {}
+    requests: list[tuple[object, str]] = []
+
+    if "designer" not in skip:
+        count = args.designer_shapes or 10 ** 6
+        paths = sample_programs(args.data, count, seed=1)
+        shapes = [load_shape(str(p)) for p in paths]
+        cases = [Case(shape, d.kind, d.seed, d.breaks) for shape in shapes for d in designer_seeds(shape)]
+        print(f"designer seeds: {len(shapes)} val shapes, {len(cases)} cases")
+        variants = [("full", {})]
+        if "ablation" not in skip:
+            variants += [("--no-nhbd", {"nhbd": False}), ("--no-breaking", {"breaking": False})]
+        ablation = []
+        for name, options in variants:
+            outcomes = [run_case(c, {**options, "backend": backends[0]}) for c in cases]
+            ablation.append((name, *summarise(outcomes)))
+            if name != "full":
                 continue
-            times.append(time.perf_counter() - clock)
-            screened += result.stats["candidates_screened"]
-            counts = check_program(shape, result.program).counts()
-            kept += counts["kept"]
-            total += sum(counts.values())
-            programs.setdefault(i, result.program)
-        times.sort()
-        rows.append((backend, len(times), failures, statistics.median(times), times[int(0.95 * (len(times) - 1))],
-                     screened / sum(times), kept / max(total, 1)))
-    print(f"\n{'backend':<11}{'requests':>9}{'failed':>8}{'median s':>10}{'p95 s':>9}{'cand/s':>10}{'kept':>8}")
-    for backend, n, failed, median, p95, rate, kept in rows:
-        print(f"{backend:<11}{n:>9}{failed:>8}{median:>10.3f}{p95:>9.3f}{rate:>10.0f}{kept:>8.1%}")
-    if len(rows) == 2:
-        print(f"median ratio {rows[1][0]}/{rows[0][0]}: {rows[1][3] / rows[0][3]:.2f}x")
+            print_groups("category", outcomes, lambda o: o.case.shape.metadata.get("category", "?"))
+            print_groups("seed kind", outcomes, lambda o: o.case.kind)
+            print_losses(outcomes)
+            if args.verbose:
+                for o in outcomes:
+                    if o.losses or o.crashed:
+                        print(f"  {o.case.shape.name} {o.case.kind}: {o.kept}/{o.total} {o.losses[:4]} "
+                              f"{o.crashed or ''}")
+        print(f"\n{'designer seeds':<16}{'kept':>9}{'all kept':>10}{'crashes':>9}")
+        for name, kept, whole, crashes, _ in ablation:
+            print(f"{name:<16}{kept:>9.2%}{whole:>10.1%}{crashes:>9}")
+
+    if "random" not in skip:
+        paths = sample_programs(args.data, args.shapes)
+        clock = time.perf_counter()
+        shapes = [load_shape(str(p)) for p in paths]
+        load_time = time.perf_counter() - clock
+        requests = [(shape, seed) for shape in shapes for seed in seeds_for(shape)]
+        mix = ", ".join(f"{sum(s.metadata.get('category') == c for s in shapes)} {c}" for c in CATEGORIES)
+        print(f"\nrandom seeds: {len(shapes)} shapes ({mix}), {len(requests)} requests; parts per shape: median "
+              f"{statistics.median(len(s.parts) for s in shapes):.0f}, max {max(len(s.parts) for s in shapes)}; "
+              f"relations: median {statistics.median(len(s.relations) for s in shapes):.0f}, "
+              f"max {max(len(s.relations) for s in shapes)}; loading + detection {load_time:.1f} s")
+        rows = []
+        for backend in backends:
+            get_cas_backend(backend)
+            outcomes = [run_case(Case(shape, "random", seed), {"backend": backend}) for shape, seed in requests]
+            for i, o in enumerate(outcomes):
+                if o.program is not None:
+                    programs.setdefault(i, o.program)
+            times = sorted(o.seconds for o in outcomes if o.crashed is None)
+            kept, whole, crashes, n = summarise(outcomes)
+            rows.append((backend, n, crashes, statistics.median(times), times[int(0.95 * (len(times) - 1))],
+                         kept, whole))
+            if backend == backends[0]:
+                print_losses(outcomes)
+        print(f"\n{'backend':<11}{'requests':>9}{'crashes':>8}{'median s':>10}{'p95 s':>9}{'kept':>8}{'all kept':>10}")
+        for backend, n, failed, median, p95, kept, whole in rows:
+            print(f"{backend:<11}{n:>9}{failed:>8}{median:>10.3f}{p95:>9.3f}{kept:>8.1%}{whole:>10.1%}")
+        if len(rows) == 2:
+            print(f"median CPU ratio {rows[1][0]}/{rows[0][0]}: {rows[1][3] / rows[0][3]:.2f}x")
+    if "slider" in skip or not programs:
+        return
 
     online = solvers()["online"]
     aep_steps, online_steps = [], []
-    backend = get_cas_backend(args.backends.split(",")[0])
+    backend = get_cas_backend(backends[0])
     for i in sorted(programs)[:: max(1, len(programs) // args.slider_requests)][: args.slider_requests]:
         shape, seed = requests[i]
         program = programs[i]

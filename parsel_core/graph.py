@@ -82,6 +82,8 @@ class ShapeGraph:
         for member in relation.members:
             if member not in self.parts:
                 raise UnknownPartError(f"relation {relation.id!r} names unknown part {member!r}")
+        # Every relation holds exactly at rest: its residual is its drift from the rest shape.
+        relation = relation.anchored({m: self.parts[m].hexahedron.corners for m in relation.members})
         self.relations[relation.id] = relation
         if relation.kind in GROUP_KINDS:
             if relation.id in self.parts:

@@ -11,6 +11,7 @@ equations it solves.
 from __future__ import annotations
 
 from collections.abc import Mapping
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -44,10 +45,38 @@ class Relation:
 
     id: str
     members: tuple[str, ...]
+    #: The constraint's value on the rest shape (flattened), subtracted by :meth:`residual`
+    #: so every relation holds exactly at rest; set by :meth:`anchored`.
+    rest_offset: tuple[float, ...] = field(default=(), kw_only=True, repr=False, compare=False)
+
+    def constraint(self, corners: Corners) -> np.ndarray:
+        """The relation's raw constraint values (..., k), zero for an exact relation."""
+        raise NotImplementedError
 
     def residual(self, corners: Corners) -> np.ndarray:
-        """Constraint values (..., k): all zero when the relation holds."""
-        raise NotImplementedError
+        """Drift of the constraint from its rest value (..., k): all zero when the relation holds.
+
+        Detection accepts relations within a tolerance of the shape's size, so a detected
+        mirror pair may be a little asymmetric at rest; measuring drift from the rest value
+        makes the identity program keep every relation exactly (docs/relations.md).
+        """
+        raw = self.constraint(corners)
+        if not self.rest_offset:
+            return raw
+        return raw - np.asarray(self.rest_offset, dtype=float)
+
+    def anchored(self, rest: Corners) -> Relation:
+        """This relation with its rest offset measured on the rest corners ``rest``."""
+        offset = np.asarray(self.constraint(rest), dtype=float).reshape(-1)
+        offset = np.where(np.abs(offset) < 1e-12, 0.0, offset) + 0.0
+        if not np.any(offset):
+            return dataclasses.replace(self, rest_offset=())
+        return dataclasses.replace(self, rest_offset=tuple(float(v) for v in offset))
+
+    @property
+    def rest_error(self) -> float:
+        """``||C||_inf`` on the rest shape: how far from exact the relation was detected."""
+        return float(np.abs(np.asarray(self.rest_offset)).max()) if self.rest_offset else 0.0
 
     def error(self, corners: Corners) -> np.ndarray:
         """``||C||_inf`` per sample (a float for unbatched corners)."""
@@ -86,7 +115,7 @@ class ReflectionSymmetry(Relation):
         d = (points - o) @ n if points.dtype != object else np.dot(points - o, n)
         return points - d[..., None] * (2 * n)
 
-    def residual(self, corners):
+    def constraint(self, corners):
         a, b = (corners[m] for m in self.members)
         return _flat(b[..., list(self.correspondence), :] - self.reflect(a))
 
@@ -112,7 +141,7 @@ class TranslationSymmetry(Relation):
         perm = self.correspondence[j] if self.correspondence else tuple(range(8))
         return corners[self.members[j]][..., list(perm), :]
 
-    def residual(self, corners):
+    def constraint(self, corners):
         h0 = self._member(corners, 0)
         step = (self._member(corners, 1) - h0).mean(axis=-2, keepdims=True) if len(self.members) > 1 else 0
         parts = [_flat(self._member(corners, j) - h0 - step * j) for j in range(1, len(self.members))]
@@ -138,7 +167,7 @@ class RotationSymmetry(Relation):
         """Whether the instances go all the way round (count x angle = 2 pi)."""
         return abs(len(self.members) * abs(self.angle) - 2 * np.pi) < 1e-3
 
-    def residual(self, corners):
+    def constraint(self, corners):
         o = _vec(self.center)
         h0 = corners[self.members[0]]
         parts = []
@@ -174,7 +203,7 @@ class Attachment(Relation):
         """``point``, ``line``, ``face`` or ``volume``, by the number of point pairs."""
         return self.KINDS.get(len(self.weights_a), f"{len(self.weights_a)}-point")
 
-    def residual(self, corners):
+    def constraint(self, corners):
         a, b = (corners[m] for m in self.members)
         wa, wb = np.asarray(self.weights_a), np.asarray(self.weights_b)
         pa = wa @ a if a.dtype != object else np.dot(wa, a)
@@ -199,7 +228,7 @@ class GroundContact(Relation):
     height: float = 0.0
     up: tuple[float, float, float] = (0.0, 1.0, 0.0)
 
-    def residual(self, corners):
+    def constraint(self, corners):
         h = corners[self.members[0]]
         w = np.asarray(self.weights)
         points = w @ h if h.dtype != object else np.dot(w, h)

@@ -77,6 +77,11 @@ class _State:
     ops: list[EditOp]
     decided: set[str]
     rejected: set[str] = field(default_factory=set)
+    #: Why each rejected relation was given up, and the part being edited then (for the
+    #: loss analysis of benchmarks/bench_aep.py and the report).
+    losses: dict[str, tuple[str, str | None]] = field(default_factory=dict)
+    transferred: set[str] = field(default_factory=set)
+    seeded: set[str] = field(default_factory=set)
     stats: dict[str, Any] = field(default_factory=lambda: {
         "candidates_screened": 0, "candidates_valid": 0, "symmetry_transfers": 0, "searches": 0,
         "nhbd_edits": 0, "breaking_edits": 0, "unfixed_parts": 0,
@@ -84,6 +89,12 @@ class _State:
 
     def edited(self) -> set[str]:
         return {op.operand for op in self.ops if op.acts_on == "part" and not isinstance(op, KeepFixed)}
+
+    def reject(self, relations, reason: str, part: str | None = None) -> None:
+        for relation in relations:
+            rid = relation if isinstance(relation, str) else relation.id
+            self.rejected.add(rid)
+            self.losses.setdefault(rid, (reason, part))
 
 
 def validate_request(request: SolveRequest) -> None:
@@ -150,6 +161,7 @@ class Propagation:
             state.decided.add(op.operand)
             if op.operand in self.shape.virtual_parents:
                 state.decided.update(self.shape.relations[op.operand].members)
+        state.seeded = set(state.decided)
         for part, hint in sorted(self.hints.items()):
             if hint == "keep" and part not in state.decided:
                 state.ops.append(KeepFixed(part))
@@ -166,7 +178,8 @@ class Propagation:
             undecided = sorted({m for r in broken for m in r.members if m not in state.decided
                                 and m in self.shape.parts})
             if not undecided:
-                state.rejected.update(r.id for r in broken)
+                for r in broken:
+                    state.reject([r], self.late_reason(state, r, sliding_members(self.shape, self.program(state.ops))))
                 break
             # Minimum entropy: the most constrained part goes first (most exact relations with
             # decided parts or the ground, then most relations overall). An intact repeated
@@ -181,11 +194,23 @@ class Propagation:
         # The final word is a check at random samples of the whole range (paper eq. 1).
         report = check_program(self.shape.with_relations(self.relations), program, samples=50,
                                tolerance=self.tolerance)
-        state.rejected.update(r.id for r in report.relations if r.state != "kept")
+        state.reject([r.id for r in report.relations if r.state != "kept"], "final-check")
         state.stats["time_s"]["verify"] = time.perf_counter() - clock
+        state.stats["losses"] = {rid: state.losses[rid] for rid in sorted(state.rejected) if rid in state.losses}
         state.stats["time_s"]["total"] = time.perf_counter() - started
         state.stats["tau"] = float(tau)
         return SolveResult(program, sorted(state.rejected), state.stats)
+
+    def late_reason(self, state: _State, relation: Relation, sliding: set[str]) -> str:
+        """Why a relation between decided parts is broken: which decision broke it."""
+        members = set(relation.members)
+        if members & sliding:
+            return "group-layout"
+        if members & state.transferred:
+            return "symmetry-transfer"
+        if members <= state.seeded:
+            return "seed"
+        return "decided-early"
 
     def decided_count(self, part: str, state: _State, sliding: set[str]) -> int:
         members = {part}
@@ -218,6 +243,7 @@ class Propagation:
                     continue
                 state.ops.extend(new_ops)
                 state.decided.add(target)
+                state.transferred.add(target)
                 state.stats["symmetry_transfers"] += 1
                 progress = True
         return progress
@@ -242,10 +268,11 @@ class Propagation:
                 state.ops.extend(op)
             elif op is not None:  # a breaking-edit may be to leave the part where it is
                 state.ops.append(op)
-            state.rejected.update(broken)
+            state.reject(broken, "breaking-edit", operand)
         else:
             state.stats["unfixed_parts"] += 1
-            state.rejected.update(r.id for r in constraints if float(np.max(r.error(corners))) >= self.tolerance)
+            state.reject([r for r in constraints if float(np.max(r.error(corners))) >= self.tolerance],
+                         "no-candidate", operand)
         state.decided.update(moving)
         state.decided.add(operand)
 

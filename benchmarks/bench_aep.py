@@ -31,6 +31,7 @@ from parsel_core.report import check_program
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from designer_seeds import designer_seeds  # noqa: E402
+
 from parsel_aep.candidates import candidate_family  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -61,6 +61,22 @@ def inverse_trilinear(corners: np.ndarray, points: np.ndarray, iterations: int =
     return uvw
 
 
+def batched_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`inverse_trilinear` over a batch: cube coordinates (..., n, 3) of points (..., n, 3)
+    in hexahedra (..., 8, 3); one affine solve per hexahedron, Newton only where it is not a
+    parallelepiped."""
+    corners = np.asarray(corners, dtype=float)
+    points = np.asarray(points, dtype=float)
+    origin = corners[..., 0, :]
+    frame = np.stack([corners[..., 4, :] - origin, corners[..., 2, :] - origin, corners[..., 1, :] - origin],
+                     axis=-1)                                                   # (..., 3, 3)
+    uvw = np.linalg.solve(frame[..., None, :, :], (points - origin[..., None, :])[..., None])[..., 0]
+    residual = np.abs(np.einsum("...nk,...kj->...nj", cage_weights(uvw), corners) - points).max(axis=(-1, -2))
+    for index in zip(*np.nonzero(residual > 1e-9)):
+        uvw[index] = inverse_trilinear(corners[index], points[index])
+    return uvw
+
+
 def point_weights(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Cage coordinates (n, 8) of world points inside a hexahedron."""
     return cage_weights(inverse_trilinear(corners, points))

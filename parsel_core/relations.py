@@ -10,8 +10,8 @@ equations it solves.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -28,6 +28,13 @@ def rotation_matrix(axis, angle: float) -> np.ndarray:
     n = _vec(axis) / np.linalg.norm(axis)
     k = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
     return np.cos(angle) * np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * np.outer(n, n)
+
+
+def _concatenate(parts: list[np.ndarray]) -> np.ndarray:
+    """Residual blocks joined along the last axis, their sample axes broadcast together
+    (members moved by a batch of candidates next to members that stay)."""
+    batch = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
+    return np.concatenate([np.broadcast_to(p, batch + p.shape[-1:]) for p in parts], axis=-1)
 
 
 def _flat(residual: np.ndarray) -> np.ndarray:
@@ -78,6 +85,12 @@ class Relation:
         """``||C||_inf`` on the rest shape: how far from exact the relation was detected."""
         return float(np.abs(np.asarray(self.rest_offset)).max()) if self.rest_offset else 0.0
 
+    def allowance(self, tolerance: float) -> float:
+        """The drift this relation may take and still hold: the check's ``tolerance``, or its
+        own rest error when detection accepted it less exact than that (a mirror pair that
+        was 0.3% asymmetric may not become more than 0.3% more so)."""
+        return max(tolerance, self.rest_error)
+
     def error(self, corners: Corners) -> np.ndarray:
         """``||C||_inf`` per sample (a float for unbatched corners)."""
         return np.abs(self.residual(corners)).max(axis=-1)
@@ -98,7 +111,10 @@ class Relation:
 
 @dataclass(frozen=True)
 class ReflectionSymmetry(Relation):
-    """``H_b[perm] = H_a - 2((H_a - o).n) n``: b is a's mirror image about plane (o, n).
+    """``H_b[perm] = H_a - 2((H_a - o).n) n``: b is a's mirror image about a plane of normal n.
+
+    The plane's offset is free (it passes through ``origin`` at rest and may move along
+    ``n`` with the pair): mirrored parts stay mirrored when the shape around them moves.
 
     ``correspondence[k]`` is the corner of b that mirrors corner k of a (reflection
     reverses handedness, so it is a permutation, found once at rest).
@@ -116,8 +132,16 @@ class ReflectionSymmetry(Relation):
         return points - d[..., None] * (2 * n)
 
     def constraint(self, corners):
+        # The plane keeps its normal but may move along it: the pair stays mirrored when the
+        # whole shape moves, or when a seat widened about an off-centre point carries both
+        # legs outwards by different amounts. The offset is the mean of the mirrored corners'
+        # gaps along n, so the constraint stays linear in the corners.
         a, b = (corners[m] for m in self.members)
-        return _flat(b[..., list(self.correspondence), :] - self.reflect(a))
+        gap = b[..., list(self.correspondence), :] - self.reflect(a)
+        n = _vec(self.normal)
+        along = gap @ n if gap.dtype != object else np.dot(gap, n)
+        shift = along.sum(axis=-1, keepdims=True) / 8.0
+        return _flat(gap - shift[..., None] * n)
 
     def params(self):
         return {"origin": self.origin, "normal": self.normal, "correspondence": self.correspondence}
@@ -145,7 +169,7 @@ class TranslationSymmetry(Relation):
         h0 = self._member(corners, 0)
         step = (self._member(corners, 1) - h0).mean(axis=-2, keepdims=True) if len(self.members) > 1 else 0
         parts = [_flat(self._member(corners, j) - h0 - step * j) for j in range(1, len(self.members))]
-        return np.concatenate(parts, axis=-1) if parts else _flat(h0 - h0)
+        return _concatenate(parts) if parts else _flat(h0 - h0)
 
     def params(self):
         return {"step": self.step, "correspondence": self.correspondence}
@@ -177,7 +201,7 @@ class RotationSymmetry(Relation):
             r = rotation_matrix(self.axis, j * self.angle)
             expected = o + (h0 - o) @ r.T if h0.dtype != object else o + np.dot(h0 - o, r.T)
             parts.append(_flat(hj - expected))
-        return np.concatenate(parts, axis=-1)
+        return _concatenate(parts)
 
     def params(self):
         return {"center": self.center, "axis": self.axis, "angle": self.angle,

@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.cage import inverse_trilinear
+from parsel_core.cage import batched_cube_coordinates
 from parsel_core.graph import ShapeGraph
-from parsel_core.hexahedron import CORNER_BITS, Hexahedron
+from parsel_core.hexahedron import CORNER_BITS
 from parsel_core.program import Program, evaluate, laid_out_groups
 from parsel_core.relations import Attachment, Relation
 
@@ -89,16 +89,22 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     own, target = np.broadcast_to(own, batch + (8, 3)), np.broadcast_to(target, batch + (8, 3))
     rest_uvw = np.asarray(other_weights) @ CORNER_BITS                                  # (k, 3)
     on_boundary = (np.abs(rest_uvw) < 1e-9) | (np.abs(rest_uvw - 1) < 1e-9)
+    # A removed instance (NaN corners) has no contact to keep.
+    present = ~(np.isnan(own).any(axis=(-1, -2)) | np.isnan(target).any(axis=(-1, -2)))
     errors = np.zeros(batch)
-    for index in np.ndindex(*batch) if batch else [()]:
-        if np.isnan(own[index]).any():
-            errors[index] = 0.0  # a removed instance has no contact to keep
-            continue
-        points = np.asarray(own_weights) @ own[index]
-        uvw = inverse_trilinear(target[index], points)
-        extents = Hexahedron(target[index]).extents
-        drift = np.where(on_boundary, np.abs(uvw - rest_uvw), np.maximum(0, -uvw) + np.maximum(0, uvw - 1))
-        errors[index] = float((drift * extents).max())
+    if not present.any():
+        return errors
+    own, target = own[present], target[present]
+    points = np.asarray(own_weights) @ own                                              # (B, k, 3)
+    try:
+        uvw = batched_cube_coordinates(target, points)
+    except np.linalg.LinAlgError:  # a degenerate cage: the contact cannot be located
+        errors[present] = np.inf
+        return errors
+    extents = np.linalg.norm(np.stack([target[:, 4] - target[:, 0], target[:, 2] - target[:, 0],
+                                       target[:, 1] - target[:, 0]], axis=1), axis=-1)  # (B, 3)
+    drift = np.where(on_boundary, np.abs(uvw - rest_uvw), np.maximum(0, -uvw) + np.maximum(0, uvw - 1))
+    errors[present] = (drift * extents[:, None, :]).max(axis=(-1, -2))
     return errors
 
 
@@ -111,7 +117,12 @@ def relation_error(relation: Relation, corners: Mapping[str, np.ndarray], slidin
             return float(max(np.max(sliding_error(relation, corners, m)) for m in members))
     errors = np.asarray(relation.error(corners), dtype=float)
     errors = errors[~np.isnan(errors)]  # removed members (NaN corners) are not checked
-    return float(errors.max()) if errors.size else 0.0
+    error = float(errors.max()) if errors.size else 0.0
+    if error > 0 and isinstance(relation, Attachment) and relation.contact == "face":
+        # Two faces in contact stay attached while they stay flush and one stays within the
+        # other: a board may slide along the panel it rests on (docs/relations.md).
+        error = min(error, min(float(np.max(sliding_error(relation, corners, m))) for m in relation.members))
+    return error
 
 
 def relation_errors(shape: ShapeGraph, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()
@@ -136,7 +147,7 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
     states = []
     for rid, error in relation_errors(shape, corners, sliding_members(shape, program)).items():
         relation = shape.relations[rid]
-        state = "kept" if error < tolerance else "broken_on_purpose" if rid in breaks else "broken"
+        state = "kept" if error < relation.allowance(tolerance) else "broken_on_purpose" if rid in breaks else "broken"
         states.append(RelationState(rid, relation.kind, relation.members, state, error))
     return RelationReport(states, tolerance, samples)
 
@@ -159,6 +170,7 @@ def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[s
         corners = evaluate(program, shape, values).parts
         counts = {"kept": 0, "broken_on_purpose": 0, "broken": 0}
         for rid, error in relation_errors(shape, corners, sliding).items():
-            counts["kept" if error < tolerance else "broken_on_purpose" if rid in breaks else "broken"] += 1
+            kept = error < shape.relations[rid].allowance(tolerance)
+            counts["kept" if kept else "broken_on_purpose" if rid in breaks else "broken"] += 1
         out[parameter.name] = counts
     return out

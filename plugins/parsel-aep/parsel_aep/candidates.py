@@ -53,7 +53,10 @@ def _vec(v: np.ndarray) -> tuple[float, float, float]:
 
 
 def candidate_family(op: EditOp) -> str:
-    """The hint family of a candidate (``translate``, ``face_scale`` ...)."""
+    """The hint family of a candidate (``translate``, ``face_scale``, ``free_scale_1d`` ...)."""
+    family = getattr(op, "family", None)
+    if family is not None:
+        return family
     if op.feature is None:
         return op.name
     kind = {2: "face", 4: "edge", 6: "corner"}[len(op.feature)]

@@ -43,7 +43,7 @@ def symbolic_residual(constraints: Sequence[Relation], corners: Mapping[str, np.
     return out
 
 
-def _combination(backend: CASBackend, weights: np.ndarray, terms: Sequence) -> object:
+def linear_combination(backend: CASBackend, weights: np.ndarray, terms: Sequence) -> object:
     total = backend.number(0)
     for w, term in zip(weights, terms):
         if abs(w) > 1e-15:
@@ -58,7 +58,7 @@ def affine_amount(backend: CASBackend, slope: np.ndarray, residual: Sequence) ->
     if norm < 1e-18:
         raise ValueError("the candidate does not move the constrained points")
     weights = slope / norm
-    equation = f + _combination(backend, weights, residual)
+    equation = f + linear_combination(backend, weights, residual)
     solutions = backend.solve(equation, "f")
     if len(solutions) != 1:
         raise ValueError(f"expected one solution for the amount, got {len(solutions)}")
@@ -69,8 +69,8 @@ def rotation_amount(backend: CASBackend, matrix: np.ndarray, offset: np.ndarray,
     """``atan2(s, c)`` with ``(c, s) = -pinv([A B]) (b(x) - A)``."""
     gamma = [term - backend.number(float(o)) for term, o in zip(residual, offset)]
     pseudo = np.linalg.pinv(matrix)
-    c = -_combination(backend, pseudo[0], gamma)
-    s = -_combination(backend, pseudo[1], gamma)
+    c = -linear_combination(backend, pseudo[0], gamma)
+    s = -linear_combination(backend, pseudo[1], gamma)
     return backend.simplify(backend.functions()["atan2"](backend.expand(s), backend.expand(c)))
 
 

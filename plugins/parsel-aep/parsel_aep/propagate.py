@@ -26,16 +26,25 @@ from typing import Any
 
 import numpy as np
 
-from parsel_aep.candidates import HINT_TYPES, SIMPLICITY, candidate_family, neighbour_candidates, own_candidates
+from parsel_aep.candidates import (
+    HINT_TYPES,
+    SIMPLICITY,
+    candidate_family,
+    directions,
+    neighbour_candidates,
+    own_candidates,
+)
+from parsel_aep.compound import Compound, compound_candidates, simplify
 from parsel_aep.derive import (
     affine_amount,
     amount_text,
     evaluate_amount,
+    linear_combination,
     rotation_amount,
     simpler_equivalent,
     symbolic_residual,
 )
-from parsel_aep.screening import Screened, screen
+from parsel_aep.screening import Screened, compound_solver, screen
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
@@ -45,7 +54,7 @@ from parsel_core.interfaces import SolveRequest, SolveResult
 from parsel_core.ops import ChangeCount, EditOp, KeepFixed, Scale1D, Translate
 from parsel_core.plugins import get_cas_backend
 from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
-from parsel_core.relations import Relation, TranslationSymmetry
+from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, TranslationSymmetry
 from parsel_core.report import check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
@@ -62,6 +71,8 @@ class AEPOptions:
     samples: int = 17
     relative_tolerance: float = 1e-4
     backend: str | None = None
+    #: Passes of the second look at parts decided too early (0 turns it off).
+    repair: int = 2
 
     @classmethod
     def from_mapping(cls, options: Mapping[str, Any]) -> AEPOptions:
@@ -111,6 +122,32 @@ def validate_request(request: SolveRequest) -> None:
             raise UnknownPartError(f"--break {rid}: shape {shape.name!r} has no relation {rid!r}")
     if len(request.seed.parameters) != 1:
         raise ParselError("edit propagation takes a seed with exactly one parameter")
+    check_amounts(request.seed)
+
+
+#: Seed amounts beyond this magnitude are refused: no part is meant to grow a million-fold.
+MAX_AMOUNT = 1e6
+
+
+def check_amounts(seed: Program, samples: int = 201) -> None:
+    """Every seed amount is finite and bounded over the whole range (``x/0``, ``log(0) + x``
+    and ``1e300*x`` are one-line errors here, not NaN corners later)."""
+    parameter = seed.parameters[0]
+    lo, hi = parameter.lo, max(parameter.hi, 1.0)
+    values = np.linspace(lo, hi, samples)
+    for op in seed.ops:
+        try:
+            with np.errstate(all="ignore"):
+                amounts = evaluate_amount(op.amount, parameter.name, values)
+        except (ArithmeticError, ValueError, TypeError) as exc:
+            raise ParselError(f"seed {op.name} on {op.operand!r}: amount {op.amount!r} cannot be evaluated: "
+                              f"{exc}") from None
+        bad = ~np.isfinite(amounts) | (np.abs(amounts) > MAX_AMOUNT)
+        if bad.any():
+            at = float(values[int(np.argmax(bad))])
+            what = "is not finite" if not np.isfinite(amounts[bad][0]) else f"exceeds {MAX_AMOUNT:g}"
+            raise ParselError(f"seed {op.name} on {op.operand!r}: amount {op.amount!r} {what} at "
+                              f"{parameter.name} = {at:g}")
 
 
 class Propagation:
@@ -140,7 +177,7 @@ class Propagation:
     def broken(self, state: _State, corners: Mapping[str, np.ndarray]) -> list[Relation]:
         sliding = sliding_members(self.shape, self.program(state.ops))
         return [r for r in self.relations
-                if r.id not in state.rejected and relation_error(r, corners, sliding) >= self.tolerance]
+                if r.id not in state.rejected and not self.holds(r, corners, sliding)]
 
     # -- the loop ------------------------------------------------------------------
 
@@ -189,17 +226,73 @@ class Propagation:
             self.edit_part(state, target, corners)
         else:
             raise RuntimeError("edit propagation did not terminate")
+        if self.options.repair:
+            self.repair(state)
         program = self.program(state.ops)
         clock = time.perf_counter()
         # The final word is a check at random samples of the whole range (paper eq. 1).
         report = check_program(self.shape.with_relations(self.relations), program, samples=50,
                                tolerance=self.tolerance)
-        state.reject([r.id for r in report.relations if r.state != "kept"], "final-check")
+        final = {r.id for r in report.relations if r.state != "kept"}
+        state.rejected = set()
+        state.reject(sorted(final), "final-check")
         state.stats["time_s"]["verify"] = time.perf_counter() - clock
         state.stats["losses"] = {rid: state.losses[rid] for rid in sorted(state.rejected) if rid in state.losses}
         state.stats["time_s"]["total"] = time.perf_counter() - started
         state.stats["tau"] = float(tau)
         return SolveResult(program, sorted(state.rejected), state.stats)
+
+    def holds(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> bool:
+        """Whether ``relation`` holds at every sample (within its allowance)."""
+        return relation_error(relation, corners, sliding) < relation.allowance(self.tolerance)
+
+    def damage(self, ops: Sequence[EditOp]) -> tuple[float, int]:
+        """How badly ``ops`` break the relations that must hold: total error, then count."""
+        corners = self.corners(ops)
+        sliding = sliding_members(self.shape, self.program(ops))
+        errors = [relation_error(r, corners, sliding) for r in self.relations]
+        broken = [e for e, r in zip(errors, self.relations) if not e < r.allowance(self.tolerance)]
+        return (float(sum(e for e in broken if np.isfinite(e))) + (np.inf if any(not np.isfinite(e) for e in broken)
+                                                                   else 0.0), len(broken))
+
+    def repair(self, state: _State) -> None:
+        """A second pass over parts decided too early (an extension of the paper's loop).
+
+        The loop edits each part once, against the parts decided before it; an edit that
+        was one of many keeping those (a face moved where the whole part should stretch)
+        can leave a later neighbour with no edit that keeps everything. Here every edited
+        or unedited part touching a broken relation is searched again against all its
+        relations, the others' edits fixed, and the new edit is kept when it lowers the
+        total error of the whole shape. Seed parts, fixed parts and group members are left
+        alone.
+        """
+        fixed = state.seeded | {p for p, hint in self.hints.items() if hint == "keep"}
+        for _ in range(self.options.repair):
+            damage = self.damage(state.ops)
+            if damage[1] == 0:
+                return
+            corners = self.corners(state.ops)
+            sliding = sliding_members(self.shape, self.program(state.ops))
+            broken = [r for r in self.relations if not self.holds(r, corners, sliding)]
+            parts = sorted({m for r in broken for m in r.members if m in self.shape.parts and m not in fixed
+                            and m not in sliding and not self.shape.groups_of(m)},
+                           key=lambda m: (-self.relation_count(m), m))
+            improved = False
+            for part in parts:
+                others_ops = [op for op in state.ops if op.operand != part]
+                constraints = [r for r in self.relations if part in r.members]
+                trial_state = dataclasses.replace(state, ops=others_ops, stats=state.stats)
+                choice = self.search(trial_state, part, (part,), constraints, self.corners(others_ops))
+                if choice is None:
+                    continue
+                op = choice[0]
+                new_ops = others_ops + (op if isinstance(op, list) else [op] if op is not None else [])
+                new_damage = self.damage(new_ops)
+                if new_damage[0] < damage[0] - self.tolerance:
+                    state.ops, damage, improved = new_ops, new_damage, True
+                    state.stats["repairs"] = state.stats.get("repairs", 0) + 1
+            if not improved:
+                return
 
     def late_reason(self, state: _State, relation: Relation, sliding: set[str]) -> str:
         """Why a relation between decided parts is broken: which decision broke it."""
@@ -224,12 +317,20 @@ class Propagation:
         return sum(part in r.members for r in self.relations)
 
     def restore_symmetries(self, state: _State, broken: Sequence[Relation]) -> bool:
-        """E* = T(E) for every broken symmetry with an edited and an undecided member."""
+        """E* = T(E) for symmetries with an edited and an undecided member.
+
+        Broken symmetries are restored first; a mirror pair whose plane merely moved (an
+        intact reflection) still hands the edit over, so moving one armrest out moves the
+        other. A transfer is only taken when it keeps the target's relations with decided
+        parts: otherwise (a seat widened about a point off the legs' mirror plane) the
+        target is searched like any part, with the symmetry among its constraints.
+        """
         progress = False
         edited = state.edited()
-        for relation in broken:
-            if relation.family != "symmetry":
-                continue
+        broken_ids = {r.id for r in broken}
+        intact = [r for r in self.relations if isinstance(r, ReflectionSymmetry) and r.id not in broken_ids
+                  and r.id not in state.rejected]
+        for relation in [r for r in broken if r.family == "symmetry"] + intact:
             sources = [m for m in relation.members if m in edited]
             targets = [m for m in relation.members if m not in state.decided]
             if not sources or not targets:
@@ -241,12 +342,25 @@ class Propagation:
                     new_ops = transfer(source_ops, relation, source, target)
                 except ValueError:
                     continue
+                if not self.transfer_keeps(state, target, new_ops):
+                    continue
                 state.ops.extend(new_ops)
                 state.decided.add(target)
                 state.transferred.add(target)
                 state.stats["symmetry_transfers"] += 1
                 progress = True
         return progress
+
+    def transfer_keeps(self, state: _State, target: str, new_ops: Sequence[EditOp]) -> bool:
+        """Whether a transferred edit keeps the target's relations with decided parts."""
+        constraints = [r for r in self.relations if target in r.members and r.id not in state.rejected
+                       and set(r.members) - {target} <= state.decided]
+        if not constraints:
+            return True
+        ops = state.ops + list(new_ops)
+        corners = self.corners(ops)
+        sliding = sliding_members(self.shape, self.program(ops))
+        return all(self.holds(r, corners, sliding) for r in constraints)
 
     # -- searching one part's edit -------------------------------------------------
 
@@ -271,7 +385,7 @@ class Propagation:
             state.reject(broken, "breaking-edit", operand)
         else:
             state.stats["unfixed_parts"] += 1
-            state.reject([r for r in constraints if float(np.max(r.error(corners))) >= self.tolerance],
+            state.reject([r for r in constraints if not self.holds(r, corners)],
                          "no-candidate", operand)
         state.decided.update(moving)
         state.decided.add(operand)
@@ -290,13 +404,34 @@ class Propagation:
         others = {m: corners[m] for r in exact for m in r.members if m not in rest}
         check = self.sliding_check(corners, rest, soft, sliding)
         own = own_candidates(operand, hexahedron, hint)
-        found = self.screen_and_pick(state, own, rest, others, exact, check=check)
-        extra: list[EditOp] = []
+        if operand in self.shape.virtual_parents:  # a group is edited as a whole, never by a feature
+            own = [op for op in own if op.feature is None]
+        copies = self.copied_edits(state, operand, moving, hint) if self.options.nhbd else []
+        found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check,
+                                     preferred={id(op) for op in copies})
+        extra: list = []
         if found is None and self.options.nhbd:
             extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
             found = self.screen_and_pick(state, extra, rest, others, exact, check=check)
+            if found is None:
+                # Parameters read off the constraints themselves: a scaling about the origin
+                # that keeps both ends of a spanning part, a translation in any direction.
+                compounds = compound_candidates(operand, hexahedron, directions(hexahedron), hint)
+                found = self.screen_and_pick(state, compounds, rest, others, exact, check=check)
+                extra = extra + compounds
             if found is not None:
                 state.stats["nhbd_edits"] += 1
+        faces = [r for r in exact if isinstance(r, Attachment) and r.contact == "face"]
+        if found is None and faces and len(faces) < len(exact):
+            # Faces in contact may slide along each other (report.relation_error): keep the
+            # other constraints exactly and check the faces as sliding contacts.
+            firm = [r for r in exact if r not in faces]
+            loose = self.sliding_check(corners, rest, soft + faces, sliding)
+            firm_others = {m: corners[m] for r in firm for m in r.members if m not in rest}
+            found = self.screen_and_pick(state, own + copies + extra, rest, firm_others, firm, check=loose,
+                                         preferred={id(op) for op in copies})
+            if found is not None:
+                exact, others = firm, firm_others
         if found is None and self.options.breaking:
             found = self.screen_and_pick(state, own + extra, rest, others, exact, breaking=True)
             if found is not None:
@@ -313,6 +448,9 @@ class Propagation:
         screened, broken = found
         if np.abs(screened.f).max() < 1e-12:
             return None, broken
+        if screened.kind == "compound":
+            ops = self.compound_form(state, screened, rest, exact, broken)
+            return (ops or None, broken) if ops is not None else None
         op = self.closed_form(state, screened, rest, exact, broken)
         if op is not None and op.amount == "0":  # round-off of a breaking-edit that stays put
             return None, broken
@@ -364,16 +502,47 @@ class Propagation:
             scale = Scale1D(group, text, origin=origin, dir=tuple(map(float, direction)))
             count = ChangeCount(group, f"{len(members) - 1}*({text})", mode="top_down")
             trial = self.corners(state.ops + [scale, count])
-            if all(relation_error(r, trial, sliding) < self.tolerance for r in constraints):
+            if all(self.holds(r, trial, sliding) for r in constraints):
                 return [scale, count]
         return None
 
     def neighbour_candidates(self, state: _State, operand: str, moving: tuple[str, ...], hexahedron,
                              hint: str | None) -> list[EditOp]:
-        neighbours = sorted({n for m in moving for n in self.shape.neighbours(m)} & state.edited() - set(moving))
-        ops = [op for op in state.ops if op.operand in neighbours]
+        ops = self.neighbour_ops(state, moving)
+        neighbours = sorted({op.operand for op in ops})
         boxes = [self.shape.part(n).hexahedron for n in neighbours]
         return neighbour_candidates(operand, hexahedron, ops, boxes, hint)
+
+    def neighbour_ops(self, state: _State, moving: Sequence[str]) -> list[EditOp]:
+        """The part ops of edited neighbours, a neighbour's group's virtual parent included."""
+        neighbours = {n for m in moving for n in self.shape.neighbours(m)} - set(moving)
+        operands = set(neighbours)
+        for n in neighbours:
+            if n in self.shape.parts:
+                operands.update(self.shape.groups_of(n))
+        operands -= set(moving)
+        return [op for op in state.ops if op.operand in operands and op.acts_on == "part"
+                and not isinstance(op, KeepFixed)]
+
+    def copied_edits(self, state: _State, operand: str, moving: Sequence[str], hint: str | None) -> list[EditOp]:
+        """Edited neighbours' own ops (same origin and direction, amount to solve) for this part.
+
+        When no rigid edit keeps a part's contacts, the edit of the part it sits on usually
+        does: a back cushion between two arms stretches about the seat's centre like the
+        seat, rather than moving one face by whatever keeps its two nearest contacts.
+        """
+        out: dict[tuple, EditOp] = {}
+        for op in self.neighbour_ops(state, moving):
+            if op.feature is not None:
+                continue
+            try:
+                copy = type(op)(operand, "f", **op.params())
+            except Exception:  # an operator whose parameters do not fit another operand
+                continue
+            if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
+                continue
+            out.setdefault((copy.name, tuple(sorted(copy.params().items()))), copy)
+        return list(out.values())
 
     def sliding_check(self, corners, rest, soft: list[Relation], sliding: set[str]):
         """A test that a screened candidate also keeps the sliding contacts ``soft``."""
@@ -381,44 +550,56 @@ class Propagation:
             return None
 
         def keeps(screened: Screened) -> bool:
-            amounts = screened.f[:, None, None]
+            amounts = screened.f if screened.kind == "compound" else screened.f[:, None, None]
             trial = dict(corners)
             for pid, c in rest.items():
                 trial[pid] = screened.op.apply(c, amounts, np)
-            return all(relation_error(r, trial, sliding) < self.tolerance for r in soft)
+            return all(self.holds(r, trial, sliding) for r in soft)
 
         return keeps
 
     def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
-                        breaking: bool = False, check=None) -> tuple[Screened, tuple[str, ...]] | None:
+                        breaking: bool = False, check=None, preferred: set[int] = frozenset()
+                        ) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
         results = screen(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         state.stats["candidates_screened"] += len(candidates)
         if breaking:
+            # The edit that breaks the constraints least, by the size of the errors it
+            # leaves, not their number: a stretch that misses six contacts by 0.001 beats a
+            # slide that tears three off by 0.9.
             currently = len(constraints)
-            results = [s for s in results if len(s.broken) < currently]
-            if not results:
+            results = [s for s in results if len(s.broken) < currently and np.isfinite(s.cost)]
+            ranked = self.rank(results, rest)
+            if not ranked:
                 return None
-            fewest = min(len(s.broken) for s in results)
-            pool = [s for s in results if len(s.broken) == fewest]
+            least = min(s.cost for s in ranked)
+            best = next(s for s in ranked if s.cost <= least * 1.01 + self.tolerance)
+            return best, best.broken
         else:
             pool = [s for s in results if not s.broken]
             state.stats["candidates_valid"] += len(pool)
         if not pool:
             return None
-        for best in self.rank(pool, rest):
+        for best in self.rank(pool, rest, preferred):
             if check is None or breaking or check(best):
                 return best, best.broken
         return None
 
-    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray]) -> list[Screened]:
-        """Best first: high-distortion edits dropped, then most symmetry planes, least ARAP
-        energy, simplest op, candidate order."""
+    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray], preferred: set[int] = frozenset()
+             ) -> list[Screened]:
+        """Best first: high-distortion edits dropped, then rigid edits, then copies of an edited
+        neighbour's edit (``preferred``), then most symmetry planes, least ARAP energy,
+        simplest op, candidate order."""
+        pool = [s for s in pool if np.all(np.isfinite(s.f))]
+        if not pool:
+            return []
         energy = np.zeros(len(pool))
         planes = np.zeros(len(pool))
         for corners in rest.values():
-            edited = np.stack([s.op.apply(corners, float(s.f[-1]), np) for s in pool])
+            edited = np.stack([s.op.apply(corners, s.f[-1] if s.kind == "compound" else float(s.f[-1]), np)
+                               for s in pool])
             energy += arap_energies(corners, edited)
             planes += symmetry_plane_counts(edited)
         energy /= len(rest)
@@ -428,8 +609,10 @@ class Propagation:
                 continue
             family = candidate_family(s.op)
             simplicity = SIMPLICITY.index(family) if family in SIMPLICITY else len(SIMPLICITY)
-            scored.append((-p, round(float(e), 9), simplicity, s.index, s))
-        scored.sort(key=lambda t: t[:4])
+            rigid = e < 1e-9
+            scored.append((not rigid, not (rigid or id(s.op) in preferred), -p, round(float(e), 9), simplicity,
+                           s.index, s))
+        scored.sort(key=lambda t: t[:6])
         return [t[-1] for t in scored]
 
     def _kept_residual(self, state: _State, rest, constraints, broken):
@@ -475,6 +658,30 @@ class Propagation:
             if screened.kind == "affine" and not broken:
                 return None
         return dataclasses.replace(op, amount=text)
+
+    def compound_form(self, state: _State, screened: Screened, rest, constraints, broken) -> list[EditOp] | None:
+        """The fewest ops equal to a screened compound, each amount derived with the CAS.
+
+        The basis amounts are ``f = -pinv(A^T) r(x)`` over the kept constraints' residual
+        columns; every output op's amount is a fixed combination of them (compound.simplify).
+        """
+        clock = time.perf_counter()
+        residual, columns = self._kept_residual(state, rest, constraints, broken)
+        solver = compound_solver(screened.a, columns)                    # (B, K')
+        compound: Compound = screened.op
+        ops = []
+        for term in simplify(compound, screened.f, self.shape.size):
+            weights = -(np.asarray(term.weights) @ solver)
+            expr = self.backend.expand(linear_combination(self.backend, weights, residual))
+            text = amount_text(self.backend, expr)
+            values = evaluate_amount(text, self.parameter.name, self.xs)
+            expected = screened.f @ np.asarray(term.weights)
+            if not broken and not np.allclose(values, expected, atol=1e-6 * max(1.0, float(np.abs(expected).max()))):
+                return None
+            if text != "0":
+                ops.append(dataclasses.replace(term.op, amount=text))
+        state.stats["time_s"]["derive"] += time.perf_counter() - clock
+        return ops
 
     def _slices(self, constraints, rest):
         out, start = [], 0

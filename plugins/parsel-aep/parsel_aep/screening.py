@@ -20,6 +20,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from parsel_aep.compound import Compound
 from parsel_core.ops import EditOp, Rotate
 from parsel_core.relations import Relation
 
@@ -34,9 +35,17 @@ class Screened:
     index: int
     f: np.ndarray           # (S,) amount at each sample
     broken: tuple[str, ...]  # constraint relations still violated
-    kind: str               # "affine" or "rotation"
-    a: np.ndarray           # affine: (K,) slope; rotation: (K, 2) [A B]
+    kind: str               # "affine", "rotation" or "compound"
+    a: np.ndarray           # affine: (K,) slope; rotation: (K, 2) [A B]; compound: (B, K) basis slopes
     offset: np.ndarray      # rotation: (K,) the constant part A is measured against
+    errors: np.ndarray | None = None  # (R,) largest error of each constraint over the samples
+
+    @property
+    def cost(self) -> float:
+        """Total error of the constraints left broken (breaking-edits compare it)."""
+        if self.errors is None or not self.broken:
+            return 0.0
+        return float(sum(e for e in self.errors if e > 0 and np.isfinite(e)))
 
 
 def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -73,13 +82,16 @@ class _System:
     rotations: list[tuple[int, EditOp]]
     matrix: np.ndarray      # (Nr, K, 2) rotation [A B]
     offset: np.ndarray      # (Nr, K) rotation A
+    compounds: list = None  # (index, Compound, (B, K) basis slopes)
+    rest_errors: np.ndarray = None  # (R,) each constraint's own rest error (its allowance floor)
 
 
 def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
             constraints: Sequence[Relation]) -> _System:
     samples = next(iter(others.values())).shape[0] if others else 1
     rest_view = {pid: np.broadcast_to(c, (samples, 8, 3)) for pid, c in moving.items()}
-    r0 = _residuals(constraints, {**others, **rest_view})
+    # Removed instances of a re-laid-out group have NaN corners and are not checked.
+    r0 = np.nan_to_num(_residuals(constraints, {**others, **rest_view}), nan=0.0, posinf=0.0, neginf=0.0)
     first = {pid: c[:1][None] for pid, c in others.items()}                     # (1, 1, 8, 3)
     rest_one = {p: c[None, None] for p, c in moving.items()}
     base = _residuals(constraints, {**first, **rest_one})[0, 0]                  # (K,)
@@ -89,7 +101,7 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
         moved = {pid: _apply_all(ops, c, amount)[:, None] for pid, c in moving.items()}
         return _residuals(constraints, {**first, **moved})[:, 0]               # (N, K)
 
-    affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, Rotate)]
+    affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, (Rotate, Compound))]
     rotations = [(i, op) for i, op in enumerate(candidates) if isinstance(op, Rotate)]
     k = r0.shape[-1]
     slope = residual_at([op for _, op in affine], 1.0) - base if affine else np.zeros((0, k))
@@ -100,7 +112,12 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
         matrix = np.stack([offset, at90 - (at0 + at180) / 2], axis=-1)
     else:
         offset, matrix = np.zeros((0, k)), np.zeros((0, k, 2))
-    return _System([r.id for r in constraints], slices, affine, r0, slope, rotations, matrix, offset)
+    compounds = []
+    for i, compound in enumerate(candidates):
+        if isinstance(compound, Compound):
+            compounds.append((i, compound, residual_at(list(compound.basis), 1.0) - base))
+    return _System([r.id for r in constraints], slices, affine, r0, slope, rotations, matrix, offset, compounds,
+                   np.array([r.allowance(0.0) for r in constraints]))
 
 
 def _affine_amounts(r0: np.ndarray, slope: np.ndarray, columns) -> tuple[np.ndarray, np.ndarray]:
@@ -135,9 +152,10 @@ def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.nd
     return np.arctan2(cs[:, 1], cs[:, 0]), usable
 
 
-def _broken(system: _System, residual: np.ndarray, tolerance: float) -> tuple[str, ...]:
-    errors = relation_max_errors(residual[None], system.slices)[0]
-    return tuple(rid for rid, e in zip(system.ids, errors) if e >= tolerance)
+def _broken_ids(system: _System, errors: np.ndarray, tolerance: float) -> tuple[str, ...]:
+    """Constraints whose largest error reaches their allowance (relations.Relation.allowance)."""
+    allowed = np.maximum(tolerance, system.rest_errors)
+    return tuple(rid for rid, e, t in zip(system.ids, errors, allowed) if not e < t)
 
 
 def _rotation_residual(system: _System, n: int, f: np.ndarray) -> np.ndarray:
@@ -168,8 +186,9 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
             errors = relation_max_errors(residual, system.slices)
             for n, (index, op) in enumerate(system.affine):
                 if usable[n]:
-                    broken = tuple(rid for rid, e in zip(system.ids, errors[n]) if e >= tolerance)
-                    results.append(Screened(op, index, f[n], broken, "affine", system.slope[n], system.r0))
+                    broken = _broken_ids(system, errors[n], tolerance)
+                    results.append(Screened(op, index, f[n], broken, "affine", system.slope[n], system.r0,
+                                            errors[n]))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
@@ -178,8 +197,29 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
             errors = relation_max_errors(residual, system.slices)
             for n, (index, op) in enumerate(system.rotations):
                 if usable[n]:
-                    broken = tuple(rid for rid, e in zip(system.ids, errors[n]) if e >= tolerance)
+                    broken = _broken_ids(system, errors[n], tolerance)
                     results.append(Screened(op, index, f_all[n], broken, "rotation", system.matrix[n],
-                                            system.offset[n]))
+                                            system.offset[n], errors[n]))
+        for index, compound, slopes in system.compounds or ():
+            f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
+            residual = system.r0 + f @ slopes
+            errors = relation_max_errors(residual[None], system.slices)[0]
+            if not np.all(np.isfinite(errors)):
+                continue
+            broken = _broken_ids(system, errors, tolerance)
+            results.append(Screened(compound, index, f, broken, "compound", slopes, system.r0, errors))
     results.sort(key=lambda s: (s.index, len(s.broken)))
     return results
+
+
+def _compound_amounts(r0: np.ndarray, slopes: np.ndarray, columns) -> np.ndarray:
+    """Least-squares basis amounts (S, B) of ``r0 + f @ slopes = 0`` on the given columns."""
+    return -(compound_solver(slopes, columns) @ r0[:, columns].T).T
+
+
+def compound_solver(slopes: np.ndarray, columns) -> np.ndarray:
+    """``pinv(A^T)`` (B, K'): amounts from residual columns; directions that move none of the
+    constrained points get no amount (minimum norm)."""
+    a = slopes[:, columns]
+    scale = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+    return np.linalg.pinv(a.T / scale, rcond=1e-9) / scale

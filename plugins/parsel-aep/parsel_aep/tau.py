@@ -19,10 +19,12 @@ COLLAPSE = 0.05
 def degenerate(rest: np.ndarray, edited: np.ndarray) -> np.ndarray:
     """Which samples (...,) of an edited hexahedron are flipped or collapsed (the frame at a
     corner turned inside out, or shrunk below COLLAPSE of its rest volume)."""
-    orientation = corner_jacobians(edited)
-    rest_orientation = corner_jacobians(rest)
-    flipped = np.any(orientation * np.sign(rest_orientation) <= COLLAPSE * np.abs(rest_orientation), axis=-1)
-    return flipped
+    removed = np.isnan(edited).all(axis=(-1, -2))  # an instance a count change took away
+    with np.errstate(invalid="ignore", over="ignore"):
+        orientation = corner_jacobians(np.where(removed[..., None, None], rest, edited))
+        rest_orientation = corner_jacobians(rest)
+        flipped = np.any(~(orientation * np.sign(rest_orientation) > COLLAPSE * np.abs(rest_orientation)), axis=-1)
+    return flipped & ~removed
 
 
 def automatic_tau(shape: ShapeGraph, seed: Program, tau_max: float = 1.0, steps: int = 200) -> float:

@@ -1,0 +1,136 @@
+"""What AEP keeps on real shapes: hand-computed cases for the candidates that keep the
+relations of slightly asymmetric assemblies, and the robustness of the solver."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from parsel_aep.compound import Compound, compound_candidates, simplify
+from parsel_aep.propagate import propagate
+from parsel_core import Program
+from parsel_core.errors import ParselError
+from parsel_core.hexahedron import Hexahedron
+from parsel_core.interfaces import SolveRequest
+from parsel_core.loading import load_shape
+from parsel_core.ops import Scale1D, Translate
+from parsel_core.report import check_program
+
+FIXTURES = Path(__file__).resolve().parents[2] / "parsel-shapeassembly" / "tests" / "fixtures"
+
+
+def box(lo, hi) -> Hexahedron:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    bits = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], float)
+    return Hexahedron(lo + bits * (hi - lo))
+
+
+def test_a_scaling_and_a_translation_along_its_direction_become_one_scaling_about_the_implied_origin():
+    # Scaling by g about c = 0 then moving by t = g * (c - o) along x is scaling by g about o.
+    part = box((-1, 0, 0), (1, 1, 1))
+    centre = tuple(float(v) for v in part.center)
+    compound = Compound("p", (Scale1D("p", "f", origin=centre, dir=(1, 0, 0)),
+                              Translate("p", "f", dir=(1, 0, 0)), Translate("p", "f", dir=(0, 1, 0)),
+                              Translate("p", "f", dir=(0, 0, 1))), "free_scale_1d")
+    g = np.array([0.0, 0.25, 0.5])
+    origin_x = 0.3
+    f = np.stack([g, g * (centre[0] - origin_x), 0 * g, 0 * g], axis=1)
+    terms = simplify(compound, f, scale=3.0)
+    assert len(terms) == 1
+    op = terms[0].op
+    assert isinstance(op, Scale1D)
+    assert op.origin[0] == pytest.approx(origin_x)
+    assert terms[0].weights == pytest.approx((1, 0, 0, 0))
+    # The single op moves the corners exactly as the compound does.
+    for k, amount in enumerate(g):
+        expected = compound.apply(part.corners, f[k], np)
+        assert np.allclose(op.apply(part.corners, amount, np), expected)
+
+
+def test_a_translation_in_a_constant_direction_becomes_one_translation():
+    part = box((0, 0, 0), (1, 1, 1))
+    compound = compound_candidates("p", part, [np.eye(3)[0]], hint="translate")[0]
+    t = np.array([[0, 0, 0], [0.3, 0, 0.4], [0.6, 0, 0.8]])
+    terms = simplify(compound, t, scale=1.0)
+    assert len(terms) == 1
+    op, weights = terms[0].op, np.asarray(terms[0].weights)
+    assert op.dir == pytest.approx((0.6, 0.0, 0.8))
+    assert t @ weights == pytest.approx([0, 0.5, 1.0])
+
+
+def test_a_translation_whose_direction_turns_stays_one_translation_per_axis():
+    part = box((0, 0, 0), (1, 1, 1))
+    compound = compound_candidates("p", part, [np.eye(3)[0]], hint="translate")[0]
+    t = np.array([[0, 0, 0], [0.3, 0, 0.1], [0.6, 0, 0.8]])
+    terms = simplify(compound, t, scale=1.0)
+    assert sorted(term.op.dir for term in terms) == [(0.0, 0.0, 1.0), (1.0, 0.0, 0.0)]
+
+
+def test_chair_1277_widened_seat_stretches_the_back_bar_with_its_slats():
+    """The back's top bar rests on four slats re-laid out with the seat: stretching it about
+    the seat's centre keeps all four contacts, sliding it would tear them off."""
+    shape = load_shape(str(FIXTURES / "chair" / "1277.txt"))
+    seat = [float(v) for v in shape.parts["cube1"].hexahedron.center]
+    seed = f"scale_1d(cube1, origin=({seat[0]!r}, {seat[1]!r}, {seat[2]!r}), dir=(1, 0, 0), amount=0.5*x)"
+    result = propagate(SolveRequest(shape, Program.from_text(seed)))
+    report = check_program(shape, result.program)
+    assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
+    bar = [op for op in result.program.ops if op.operand == "Program_2/cube0"]
+    assert [op.name for op in bar] == ["scale_1d"]
+    assert result.rejected == []
+
+
+def test_legs_under_a_seat_widened_off_their_mirror_plane_stay_attached_and_mirrored():
+    """A seat whose centre is off the legs' mirror plane: each leg moves by what keeps its
+    contact, the pair stays mirrored about a plane that moved with the seat."""
+    seat = box((-0.9, 1.0, -0.5), (1.1, 1.1, 0.5))           # centre x = 0.1, legs mirrored about x = 0
+    left, right = box((-0.8, 0, -0.1), (-0.6, 1.0, 0.1)), box((0.6, 0, -0.1), (0.8, 1.0, 0.1))
+    from parsel_core.graph import ShapeGraph
+    from parsel_core.part import Part
+    from parsel_relations import detect_relations
+
+    shape = detect_relations(ShapeGraph([Part("seat", "seat", seat), Part("leg_l", "leg", left),
+                                         Part("leg_r", "leg", right)], name="offset_seat"))
+    assert any(r.kind == "reflection" for r in shape.relations.values())
+    seed = "scale_1d(seat, origin=(0.1, 1.05, 0), dir=(1, 0, 0), amount=0.5*x)"
+    result = propagate(SolveRequest(shape, Program.from_text(seed)))
+    report = check_program(shape, result.program)
+    assert report.counts()["broken"] == 0
+    moves = {op.operand: op for op in result.program.ops if op.operand.startswith("leg")}
+    assert {op.name for op in moves.values()} == {"translate"}
+    # Left contact at x = -0.7 moves by 0.5 * (-0.8); right at 0.7 by 0.5 * 0.6 (hand-computed).
+    from parsel_core.program import evaluate
+
+    corners = evaluate(result.program, shape, {"x": np.array([1.0])}).parts
+    assert corners["leg_l"][0].mean(axis=0)[0] == pytest.approx(-0.7 - 0.4)
+    assert corners["leg_r"][0].mean(axis=0)[0] == pytest.approx(0.7 + 0.3)
+
+
+@pytest.mark.parametrize("amount", ["x/0", "log(0) + x", "1e300*x", "sqrt(-1)*x", "x**-1"])
+def test_seed_amounts_that_are_not_finite_are_one_line_errors(amount):
+    shape = load_shape("tiny_table")
+    seed = f"translate(top, dir=(1, 0, 0), amount={amount})"
+    with pytest.raises(ParselError) as info:
+        propagate(SolveRequest(shape, Program.from_text(seed)))
+    assert "\n" not in str(info.value) and "top" in str(info.value)
+
+
+def test_removing_boards_from_the_shelf_gives_a_program():
+    shape = load_shape("shelf")
+    group = next(r.id for r in shape.relations.values() if r.kind == "translation")
+    seed = f"change_count({group}, amount=-2*x, mode='top_down')"
+    with np.errstate(all="raise"):
+        result = propagate(SolveRequest(shape, Program.from_text(seed)))
+    assert result.program.ops
+
+
+def test_a_seed_on_a_group_member_next_to_a_group_gives_no_feature_op_on_a_virtual_parent():
+    for path in [FIXTURES / "chair" / "43659.txt", FIXTURES / "storage" / "49020.txt"]:
+        shape = load_shape(str(path))
+        for group in shape.virtual_parents:
+            member = shape.parts[shape.relations[group].members[0]]
+            c = [float(v) for v in member.hexahedron.center]
+            seed = f"scale_1d({member.id!r}, origin=({c[0]!r}, {c[1]!r}, {c[2]!r}), dir=(1, 0, 0), amount=x)"
+            program = propagate(SolveRequest(shape, Program.from_text(seed))).program
+            program.validate(shape)
+            assert not [op for op in program.ops if op.operand in shape.virtual_parents and op.feature]

@@ -14,8 +14,10 @@ or ops separated by `` ; ``, each ``OP TARGET AXIS SIGN [=AMOUNT]``:
   says grow or shrink; a rotation's is the right-hand sense about the positive axis);
 * ``=AMOUNT``: optionally the amount at ``x = 1`` (to 1e-6), for degree words.
 
-``all`` is right when the request's ops match the expected ops one to one (no op
-repeated, none added); the ``op``, ``part``, ``axis`` and ``sign`` columns compare the
+``all`` is right when every op matches an expected op and every expected op is met: by
+one op, or by the same edit on each set of symmetric parts it names (legs of a chair whose
+front and back pairs differ); no op may be added, nor repeated on parts of one symmetric
+set (those would compound). The ``op``, ``part``, ``axis`` and ``sign`` columns compare the
 first op with the first expected op. A refusal is counted apart, with its reason.
 """
 
@@ -148,16 +150,40 @@ def score(case: Case, ops: list[EditOp], shape) -> dict[str, bool]:
         return dict.fromkeys(METRICS, False)
     first = _matches(ops[0], case.expected[0], shape)
     out = {k: first[k] for k in ("op", "part", "axis", "sign")}
-    left = list(case.expected)
+    # Each expected op is met by one op, or by the same edit on each set of symmetric parts it
+    # names (a chair whose front and back legs differ gets one scale per pair); two ops on parts
+    # of one symmetric set are the same edit twice, and wrong.
+    component = _components(shape)
+    matched: dict[Expected, list[str]] = {w: [] for w in case.expected}
     for op in ops:
-        hit = next((w for w in left if all(_matches(op, w, shape).values())), None)
-        if hit is None:
-            break
-        left.remove(hit)
-    else:
-        out["all"] = not left and len(ops) == len(case.expected)
-        return out
-    out["all"] = False
+        hits = [w for w in case.expected if all(_matches(op, w, shape).values())]
+        if not hits:
+            out["all"] = False
+            return out
+        want = hits[0]
+        key = component.get(op.operand, op.operand)
+        if key in matched[want]:
+            out["all"] = False
+            return out
+        matched[want].append(key)
+    out["all"] = all(matched.values())
+    return out
+
+
+def _components(shape) -> dict[str, str]:
+    """Part or group id -> a name for its set of symmetric parts (reflections, translations, rotations)."""
+    import networkx as nx
+
+    graph = nx.Graph()
+    graph.add_nodes_from(shape.parts)
+    for relation in shape.relations.values():
+        if relation.kind in ("reflection", "translation", "rotation"):
+            graph.add_edges_from((relation.members[0], m) for m in relation.members[1:])
+            graph.add_edge(relation.id, relation.members[0])
+    out = {}
+    for nodes in nx.connected_components(graph):
+        name = min(nodes)
+        out.update(dict.fromkeys(nodes, name))
     return out
 
 

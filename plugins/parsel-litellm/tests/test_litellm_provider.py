@@ -396,3 +396,37 @@ def test_timeout_and_retries_flags_bound_a_hung_server(fake, tmp_path, capsys):
     assert len(fake.requests) == 1
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "timed out after 0.3 s (1 attempt)" in err
+
+
+def test_a_failed_model_run_keeps_the_previous_outdir(fake, tmp_path, capsys):
+    from parsel_core.cli import main
+
+    out = tmp_path / "out"
+    base = ["edit", "tiny_table", "make the table wider", "--provider", "litellm", "--model", "openai/test-model",
+            "--api-base", fake.base, "--mode", "seed-only", "--samples", "1", "--retries", "0", "-o", str(out)]
+    fake.default = ("reply", SEED_REPLY)
+    assert main(base) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    fake.default = ("status", 401)
+    capsys.readouterr()
+    assert main(base) == 2
+    err = capsys.readouterr().err
+    assert f"{out} is kept as it was; the record of this run is in {out}.failed-record.jsonl" in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    [entry] = [json.loads(line) for line in (tmp_path / "out.failed-record.jsonl").read_text().splitlines()]
+    assert "401" in entry["error"]
+
+
+def test_a_model_record_replayed_for_another_request_fails(fake, parsel_shape, tmp_path):
+    from parsel_core.language import InferenceError, infer
+
+    fake.default = ("reply", SEED_REPLY)
+    record = _seed_only(fake, parsel_shape, "make the table wider", samples=2).record
+    path = tmp_path / "record.jsonl"
+    path.write_text("".join(json.dumps(e) + "\n" for e in record), encoding="utf-8")
+    again = infer(parsel_shape, "make the table wider", provider="replay", mode="seed-only", samples=2,
+                  options={"replay": str(path)})
+    assert [op.operand for op in again.seed.ops] == ["top"]
+    with pytest.raises(InferenceError, match="answers request 'make the table wider', not 'make the legs longer'"):
+        infer(parsel_shape, "make the legs longer", provider="replay", mode="seed-only", samples=2,
+              options={"replay": str(path)})

@@ -397,9 +397,7 @@ class Interpreter:
             if any(not m.pronoun for m in clause.mentions):
                 antecedent = [m for m in clause.mentions if not m.pronoun]
             if not clause.intents:
-                if any(not m.whole for m in clause.mentions) or any(m.whole for m in clause.mentions):
-                    continue  # a topic: its parts go to the next clause
-                continue
+                continue  # a topic ("the seat, ..."): its parts go to the next clause
             self.settle(clause)
             out.append(clause)
         if not out and clauses:
@@ -714,7 +712,7 @@ class Interpreter:
                 # "too long" -> shorter; "less wide" -> narrower; "(more|as|not) wide (enough)" -> wider.
                 comparative = lx.ADJECTIVES.get(word) or lx.EXTRA_COMPARATIVES[word]
                 invert = prev in ("too", "less", "overly") and not used[i - 1]
-                intent = self._comparative(comparative, i == first_content)
+                intent = self._comparative(comparative)
                 if invert:
                     intent = Intent(intent.action, -intent.sign, intent.dimension, intent.direction)
                     used[i - 1] = True
@@ -779,7 +777,7 @@ class Interpreter:
         return unique
 
     @staticmethod
-    def _comparative(word: str, first: bool) -> Intent:
+    def _comparative(word: str) -> Intent:
         if word in lx.POSITIONAL_COMPARATIVES:
             return Intent("comparative", lx.POSITIONAL_COMPARATIVES[word])
         return lx.INTENTS[word]

@@ -343,15 +343,21 @@ def _records_jsonl(records) -> str:
 def _infer(shape, args: argparse.Namespace, files: dict[str, str]):
     """Ask the language layer for seed, hints and breaks; keep every prompt and reply."""
     from parsel_core.language import InferenceError, infer
+    from parsel_core.language.inference_io import keep_failed_record
 
-    options = {"api_base": args.api_base, "replay": args.replay, "cache_dir": args.cache}
+    options = {"api_base": args.api_base, "replay": args.replay, "cache_dir": args.cache, "timeout": args.timeout,
+               "retries": args.retries}
+    if args.with_image:
+        from parsel_core.language.picture import shape_picture
+
+        options["image"] = shape_picture(shape)
     try:
         inference = infer(shape, args.request, provider=args.provider, model=args.model, mode=args.mode,
                           samples=args.samples, options={k: v for k, v in options.items() if v is not None})
     except InferenceError as exc:
-        # The record of what was asked and answered is the useful output of a failed inference.
-        write_outdir(args.output, {"record.jsonl": _records_jsonl(exc.record)})
-        raise
+        # The record of what was asked and answered is the useful output of a failed inference;
+        # a previous OUTDIR is never replaced by it.
+        raise keep_failed_record(exc, args.output, _records_jsonl(exc.record)) from None
     files["record.jsonl"] = _records_jsonl(inference.record)
     return inference
 
@@ -617,6 +623,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--samples", type=int, default=5, help="samples per prompt for majority voting (default 5)")
     p.add_argument("--replay", metavar="FILE", help="recorded replies for the replay provider")
     p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
+    p.add_argument("--timeout", type=float, metavar="S", help="seconds per model call (litellm; default 60)")
+    p.add_argument("--retries", type=int, metavar="N", help="retries of a call after a rate limit, server error "
+                   "or timeout (litellm; default 3)")
+    p.add_argument("--with-image", action="store_true", help="send a picture of the shape with part ids along "
+                   "with the prompts (models that take images; offline and replay ignore it)")
     p.add_argument("--solver", default="aep", help="solver plugin (default: aep)")
     p.add_argument("--tau", type=float, help="parameter range [0, tau] (default: chosen automatically)")
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")

@@ -111,7 +111,7 @@ CASES = [
     row("cabinet", "make the plinth taller", [("scale_1d", "plinth")], check={"dir": Y}),
     # -- shelf ---------------------------------------------------------------------------
     row("shelf", "make the shelf wider", [("scale_1d", "back_panel")], check={"dir": X}),
-    row("shelf", "make the shelf taller", [("scale_1d", "back_panel")], check={"dir": Y}),
+    row("shelf", "make the shelf taller", [("scale_1d", "side_panel.000")], check={"dir": Y}),
     row("shelf", "add more shelves", [("change_count", group("board"))], check={"amount": "5 * x"}),
     row("shelf", "add another shelf", [("change_count", group("board"))], check={"amount": "x"}),
     row("shelf", "fewer shelves", [("change_count", group("board"))], check={"amount": "-4 * x"}),

@@ -110,8 +110,8 @@ class SeedReply:
     cannot: str | None = None
 
 
-def extract_code(reply: str) -> str:
-    """The last fenced code block of a reply; the whole reply when it has no fence.
+def code_blocks(reply: str) -> list[str]:
+    """Every fenced code block of a reply, in order; the whole reply when it has no fence.
 
     A reply whose last fence is opened but never closed was cut off: that is an error,
     not something to guess around.
@@ -122,18 +122,40 @@ def extract_code(reply: str) -> str:
         raise ReplyError(f"reply of {len(reply)} characters is too long")
     fences = [m.start() for m in re.finditer(r"^[ \t]*```", reply, re.M)]
     if not fences:
-        return reply.strip()
+        return [reply.strip()]
     if len(fences) % 2:
         raise ReplyError("partial reply: a ``` code block is opened but never closed")
-    start, end = fences[-2], fences[-1]
-    block = reply[start:end]
-    newline = block.find("\n")
-    if newline < 0:
+    blocks = []
+    for start, end in zip(fences[0::2], fences[1::2]):
+        block = reply[start:end]
+        newline = block.find("\n")
+        code = block[newline + 1:] if newline >= 0 else ""
+        blocks.append(code)
+    if not any(code.strip() for code in blocks):
         raise ReplyError("empty code block")
-    code = block[newline + 1:]
-    if not code.strip():
-        raise ReplyError("empty code block")
-    return code
+    return blocks
+
+
+def extract_code(reply: str) -> str:
+    """The last non-empty fenced code block of a reply; the whole reply when it has no fence."""
+    return [code for code in code_blocks(reply) if code.strip()][-1]
+
+
+def read_blocks(reply: str, reader):
+    """Read a reply whose answer may be any of its code blocks: the first block ``reader``
+    accepts wins. Returns (value, index of that block, number of blocks); when no block is
+    accepted, the first block's error is raised (naming the block when there are several).
+    """
+    blocks = [code for code in code_blocks(reply) if code.strip()]
+    errors: list[ReplyError] = []
+    for index, code in enumerate(blocks):
+        try:
+            return reader(code), index, len(blocks)
+        except ReplyError as exc:
+            errors.append(exc)
+    if len(blocks) == 1:
+        raise errors[0]
+    raise ReplyError(f"none of the {len(blocks)} code blocks is an answer; block 1: {errors[0]}")
 
 
 def parse_code(code: str) -> list[ast.stmt]:
@@ -430,6 +452,7 @@ class SeedInterpreter:
             text = repr(node.value)
         else:
             text = ast.unparse(node)
+        text = radians_to_pi(text)
         try:
             expression = parse_expression(text)
         except ProgramFormatError as exc:
@@ -494,6 +517,28 @@ class SeedInterpreter:
             raise ReplyError(f"{where}: {exc}") from None
 
 
+class _Radians(ast.NodeTransformer):
+    def visit_Call(self, node: ast.Call) -> ast.AST:  # noqa: N802 (ast's naming)
+        self.generic_visit(node)
+        if isinstance(node.func, ast.Name) and node.func.id == "radians" and len(node.args) == 1 \
+                and not node.keywords:
+            degrees = ast.BinOp(node.args[0], ast.Mult(), ast.Name("pi", ast.Load()))
+            return ast.BinOp(degrees, ast.Div(), ast.Constant(180))
+        return node
+
+
+def radians_to_pi(text: str) -> str:
+    """``radians(15) * x`` -> ``15 * pi / 180 * x``: models often write angles this way, and the
+    amount language (docs/dsl.md) knows ``pi`` but not ``radians``."""
+    if "radians" not in text:
+        return text
+    try:
+        tree = ast.parse(text, mode="eval")
+    except (SyntaxError, ValueError, RecursionError):
+        return text
+    return ast.unparse(_Radians().visit(tree))
+
+
 def parse_seed_code(code: str, shape: ShapeGraph, registry: Mapping[str, type[EditOp]] | None = None,
                     parameter: str = "x") -> SeedReply:
     """Read a seed-edit snippet into ops (or a ``cannot_edit`` reason); raises :class:`ReplyError`."""
@@ -506,8 +551,9 @@ def parse_seed_code(code: str, shape: ShapeGraph, registry: Mapping[str, type[Ed
 
 def parse_seed_reply(reply: str, shape: ShapeGraph, registry: Mapping[str, type[EditOp]] | None = None,
                      parameter: str = "x") -> SeedReply:
-    """A whole reply (reasoning, then a code block) read into a :class:`SeedReply`."""
-    return parse_seed_code(extract_code(reply), shape, registry, parameter)
+    """A whole reply (reasoning, then code blocks) read into a :class:`SeedReply`: the first
+    block that reads as a seed edit is the answer."""
+    return read_blocks(reply, lambda code: parse_seed_code(code, shape, registry, parameter))[0]
 
 
 def is_identifier(text: str) -> bool:

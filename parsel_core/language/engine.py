@@ -12,6 +12,8 @@ reads back.
 
 from __future__ import annotations
 
+import hashlib
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -21,19 +23,20 @@ from typing import Any
 from parsel_core.errors import ParselError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import Completion, LLMProvider
-from parsel_core.language.api import ReplyError, SeedReply
+from parsel_core.language.amounts import check_ops
+from parsel_core.language.api import ReplyError, SeedReply, parse_seed_code, read_blocks
 from parsel_core.language.cache import ResponseCache, cache_key
 from parsel_core.language.describe import describe_shape, relation_block, request_block
+from parsel_core.language.picture import PICTURE_TEXT
 from parsel_core.language.replies import (
-    parse_hints,
-    parse_one_shot,
-    parse_requests,
-    parse_seed,
-    parse_validity,
+    hints_code,
+    one_shot_code,
+    requests_code,
     to_json,
+    validity_code,
     vote_key,
 )
-from parsel_core.language.templates import render
+from parsel_core.language.templates import describe_operators, render
 from parsel_core.language.voting import Vote, majority, majority_per_key
 from parsel_core.program import Parameter, Program
 
@@ -112,21 +115,32 @@ def validity_task_name(kind: str) -> str:
     return "reflection_validity" if kind == "reflection" else "group_validity"
 
 
-def build_tasks(shape: ShapeGraph, request: str, mode: str = "full") -> list[Task]:
-    """Every prompt a mode needs, in a fixed order: seed, hints, then one per symmetry relation."""
+def build_tasks(shape: ShapeGraph, request: str, mode: str = "full", *, registry=None,
+                picture: bool = False) -> list[Task]:
+    """Every prompt a mode needs, in a fixed order: seed, hints, then one per symmetry relation.
+
+    ``registry`` (default: the registered operators) is listed in the seed-edit prompt;
+    ``picture`` says whether a picture of the shape goes with the prompts (they then say
+    what it shows).
+    """
     mode = normalise_mode(mode)
+    if registry is None:
+        from parsel_core.plugins import edit_operators
+
+        registry = edit_operators()
     shape_text, request_text = describe_shape(shape), request_block(request)
+    seen = {"shape": shape_text, "request": request_text, "picture": f"\n\n{PICTURE_TEXT}" if picture else ""}
     if mode == "one-shot":
-        return [Task("one_shot", "one_shot", render("one_shot", shape=shape_text, request=request_text))]
-    tasks = [Task("seed_edit", "seed_edit", render("seed_edit", shape=shape_text, request=request_text))]
+        return [Task("one_shot", "one_shot", render("one_shot", **seen))]
+    tasks = [Task("seed_edit", "seed_edit", render("seed_edit", **seen, operators=describe_operators(registry)))]
     if mode == "seed-only":
         return tasks
-    tasks.append(Task("type_hints", "type_hints", render("type_hints", shape=shape_text, request=request_text)))
+    tasks.append(Task("type_hints", "type_hints", render("type_hints", **seen)))
     for relation in shape.relations.values():
         if relation.kind != "reflection" and relation.kind not in GROUP_KINDS:
             continue
         name = validity_task_name(relation.kind)
-        prompt = render(name, shape=shape_text, request=request_text, relation=relation_block(shape, relation.id))
+        prompt = render(name, **seen, relation=relation_block(shape, relation.id))
         tasks.append(Task(name, f"{name}:{relation.id}", prompt, relation.id))
     return tasks
 
@@ -149,29 +163,38 @@ def get_provider(name: str) -> LLMProvider:
     return get_named("LLM provider", table, name)
 
 
+def prompt_hash(prompt: str) -> str:
+    """The SHA-256 of a prompt: the record keeps it so a replay can tell prompts apart."""
+    return hashlib.sha256(prompt.encode("utf-8")).hexdigest()
+
+
 def _parser(task: str, shape: ShapeGraph, registry) -> Callable[[str], Any]:
+    """The reader of one code block of a ``task`` reply."""
     if task == "seed_edit":
-        def seed(reply: str) -> SeedReply:
-            value = parse_seed(reply, shape, registry)
+        def seed(code: str) -> SeedReply:
+            value = parse_seed_code(code, shape, registry)
             try:
                 Program(value.ops).validate(shape)
             except ParselError as exc:
                 raise ReplyError(str(exc)) from None
+            check_ops(value.ops)
             return value
         return seed
     if task == "type_hints":
-        return lambda reply: parse_hints(reply, shape)
+        return lambda code: hints_code(code, shape)
     if task in ("reflection_validity", "group_validity"):
-        return parse_validity
+        return validity_code
     if task == "one_shot":
-        def one_shot(reply: str) -> Program:
-            program = parse_one_shot(reply, shape, registry)
+        def one_shot(code: str) -> Program:
+            program = one_shot_code(code, shape, registry)
             if len(program.parameters) != 1:
                 raise ReplyError(f"the program must have one parameter, it has {len(program.parameters)}")
+            parameter = program.parameters[0]
+            check_ops(program.ops, parameter.name, parameter.lo, parameter.hi)
             return program
         return one_shot
     if task in ("proxydural", "variations"):
-        return parse_requests
+        return requests_code
     raise ParselError(f"no reply parser for task {task!r}")
 
 
@@ -182,6 +205,15 @@ class _Run:
     record: list[dict[str, Any]]
     values: dict[str, list[tuple[bool, Any]]]
     accounting: dict[str, Any]
+    stopped: str | None = None
+
+    def check_stopped(self, provider: str) -> None:
+        """Raise one error when a call said the provider is unusable (bad key, model, request, dead server)."""
+        if self.stopped is not None:
+            skipped = self.accounting.get("skipped", 0)
+            raise InferenceError(f"provider {provider!r} failed: {self.stopped}"
+                                 + (f" ({skipped} further call{'s' if skipped != 1 else ''} not sent)"
+                                    if skipped else ""), self.record, self.accounting)
 
 
 def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model: str | None, samples: int,
@@ -204,29 +236,47 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
     call_options = {k: v for k, v in options.items() if v is not None}
     if model is not None:
         call_options["model"] = model
+    image = call_options.get("image")
+    if image is not None and not isinstance(image, (bytes, bytearray)):
+        raise ParselError("the image option must be the bytes of a PNG picture")
+    image_hash = hashlib.sha256(image).hexdigest() if image is not None else None
+    stopped: list[str] = []  # the error that stopped the run, once a call fails for good
+    stop_lock = threading.Lock()
 
     def call(task: Task, sample: int) -> dict[str, Any]:
         entry: dict[str, Any] = {"task": task.name, "key": task.key, "subject": task.subject, "sample": sample,
-                                 "provider": provider, "model": model, "prompt": task.prompt, "reply": None,
+                                 "provider": provider, "model": model, "prompt": task.prompt,
+                                 "prompt_sha256": prompt_hash(task.prompt), "reply": None,
                                  "parsed": None, "rejected": None, "error": None, "cached": False,
                                  "prompt_tokens": 0, "completion_tokens": 0, "cost": 0.0, "seconds": 0.0}
+        if image_hash is not None:
+            entry["image_sha256"] = image_hash
         started = time.perf_counter()
         completion: Completion | None = None
-        key = cache_key(provider, model, task.prompt, sample) if cache is not None else ""
+        cache_text = task.prompt if image_hash is None else f"{task.prompt}\n<image sha256={image_hash}>"
+        key = cache_key(provider, model, cache_text, sample) if cache is not None else ""
         if cache is not None:
             completion = cache.get(key)
             entry["cached"] = completion is not None
         if completion is None:
+            if stopped:
+                entry["error"] = entry["rejected"] = f"not sent: an earlier call failed ({stopped[0]})"
+                entry["skipped"] = True
+                return entry
             try:
                 replies = instance.complete(task.prompt, task=task.name, samples=1, key=task.key, sample=sample,
                                             **call_options)
                 if not replies or not isinstance(replies[0], Completion):
                     raise ParselError(f"provider {provider!r} returned no completion")
                 completion = replies[0]
-            except Exception as exc:  # one failed call must not sink the other samples
+            except Exception as exc:  # a failed call is recorded; one that says the provider is unusable stops the run
                 entry["error"] = f"{type(exc).__name__}: {exc}" if not isinstance(exc, ParselError) else str(exc)
                 entry["rejected"] = f"provider error: {entry['error']}"
                 entry["seconds"] = time.perf_counter() - started
+                if getattr(exc, "stops_run", False):
+                    with stop_lock:
+                        if not stopped:
+                            stopped.append(entry["error"])
                 return entry
             if cache is not None:
                 cache.put(key, completion)
@@ -234,7 +284,9 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
                      completion_tokens=completion.completion_tokens,
                      cost=0.0 if entry["cached"] else completion.cost)
         try:
-            value = parsers[task.key](completion.text)
+            value, block, blocks = read_blocks(completion.text, parsers[task.key])
+            if blocks > 1:
+                entry["code_block"] = f"{block + 1} of {blocks}"
         except ReplyError as exc:
             entry["rejected"] = str(exc)
         except RecursionError:
@@ -250,17 +302,20 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
     jobs = [(task, sample) for task in tasks for sample in range(samples)]
     started = time.perf_counter()
     workers = max(1, min(int(engine.get("workers", DEFAULT_WORKERS)), len(jobs)))
+    # The first call goes alone: a bad key, model or server then costs one call, not all of them.
+    entries = [call(*jobs[0])]
     with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="parsel-llm") as pool:
-        entries = list(pool.map(lambda job: call(*job), jobs))
+        entries.extend(pool.map(lambda job: call(*job), jobs[1:]))
     values: dict[str, list[tuple[bool, Any]]] = {task.key: [] for task in tasks}
     for entry in entries:
         ok = "_value" in entry
         values[entry["key"]].append((ok, entry.pop("_value", None)))
     accounting = {
         "provider": provider, "model": model, "samples": samples, "tasks": len(tasks),
-        "calls": sum(1 for e in entries if not e["cached"]),
+        "calls": sum(1 for e in entries if not e["cached"] and not e.get("skipped")),
         "cache_hits": sum(1 for e in entries if e["cached"]),
-        "errors": sum(1 for e in entries if e["error"]),
+        "errors": sum(1 for e in entries if e["error"] and not e.get("skipped")),
+        "skipped": sum(1 for e in entries if e.get("skipped")),
         "rejected": sum(1 for e in entries if e["rejected"]),
         "prompt_tokens": sum(e["prompt_tokens"] for e in entries if not e["cached"]),
         "completion_tokens": sum(e["completion_tokens"] for e in entries if not e["cached"]),
@@ -268,7 +323,7 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
         "seconds": round(time.perf_counter() - started, 4),
     }
     accounting["total_tokens"] = accounting["prompt_tokens"] + accounting["completion_tokens"]
-    return _Run(entries, values, accounting)
+    return _Run(entries, values, accounting, stopped[0] if stopped else None)
 
 
 def _reasons(values: Sequence[tuple[bool, Any]], record: Sequence[dict[str, Any]], key: str) -> str:
@@ -289,8 +344,10 @@ def infer(shape: ShapeGraph, request: str, *, provider: str = "offline", model: 
     if not isinstance(request, str) or not request.strip():
         raise ParselError("the edit request is empty")
     mode = normalise_mode(mode)
-    tasks = build_tasks(shape, request, mode)
+    registry = (options or {}).get("registry")
+    tasks = build_tasks(shape, request, mode, registry=registry, picture=(options or {}).get("image") is not None)
     run = run_tasks(shape, tasks, provider=provider, model=model, samples=samples, options=options)
+    run.check_stopped(provider)
     record, accounting = run.record, run.accounting
     votes: dict[str, Any] = {}
 
@@ -348,6 +405,7 @@ class Proposal:
 def _propose(shape: ShapeGraph, task: Task, provider: str, model: str | None, samples: int,
              options: dict | None) -> Proposal:
     run = run_tasks(shape, [task], provider=provider, model=model, samples=samples, options=options)
+    run.check_stopped(provider)
     vote = majority(run.values[task.key], lambda v: vote_key(task.name, v))
     if not vote.decided:
         raise InferenceError(f"no valid list of requests among {samples} replies from {provider!r}: "

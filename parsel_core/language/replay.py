@@ -7,14 +7,20 @@ relation in ``"key": "reflection_validity:reflection_2"``. The ``record`` that
 :func:`parsel_core.language.infer` returns has exactly this shape, so a run's record
 replays it. A reply the file lacks is an error naming the task and sample: replay never
 makes anything up.
+
+Entries that carry their prompt (``prompt`` or ``prompt_sha256``, as every record entry
+does) are also keyed by it: replaying a record for another request, another shape or
+another template is an error that names both requests, never the recorded answer to a
+different question. Hand-written entries without a prompt answer any prompt.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import threading
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from parsel_core import hookimpl
 from parsel_core.errors import ParselError
@@ -38,8 +44,27 @@ def _entries(data: Any, source: str) -> list[dict[str, Any]]:
     return data
 
 
-def load_replies(path: str | Path) -> dict[tuple[str, int], str]:
-    """(task key, sample index) -> reply text."""
+class ReplayMismatch(ParselError):
+    """The file answers a different prompt: replaying it would answer another question."""
+
+    stops_run = True
+
+
+class Recorded(NamedTuple):
+    """A recorded reply, with the SHA-256 of the prompt it answered (None when not recorded)
+    and that prompt's request."""
+
+    reply: str
+    prompt_sha256: str | None = None
+    request: str | None = None
+
+
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def load_replies(path: str | Path) -> dict[tuple[str, int], Recorded]:
+    """(task key, sample index) -> the recorded reply."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -60,7 +85,7 @@ def load_replies(path: str | Path) -> dict[tuple[str, int], str]:
                 entries.append(json.loads(line))
             except json.JSONDecodeError as exc:
                 raise ParselError(f"{path}:{number}: not JSON or JSON Lines: {exc.msg}") from None
-    replies: dict[tuple[str, int], str] = {}
+    replies: dict[tuple[str, int], Recorded] = {}
     for i, entry in enumerate(entries):
         if not isinstance(entry, dict):
             raise ParselError(f"{path}: entry {i} is not an object")
@@ -73,8 +98,24 @@ def load_replies(path: str | Path) -> dict[tuple[str, int], str]:
             sample = int(entry.get("sample", 0))
         except (TypeError, ValueError):
             raise ParselError(f"{path}: entry {i} has a bad sample index {entry.get('sample')!r}") from None
-        replies[(key, sample)] = entry["reply"]
+        prompt = entry.get("prompt")
+        digest = entry.get("prompt_sha256")
+        if isinstance(prompt, str):
+            digest = _sha256(prompt)
+        elif not isinstance(digest, str):
+            digest = None
+        request = _request(prompt) if isinstance(prompt, str) else None
+        replies[(key, sample)] = Recorded(entry["reply"], digest, request)
     return replies
+
+
+def _request(prompt: str) -> str | None:
+    from parsel_core.language.describe import read_request
+
+    try:
+        return read_request(prompt)
+    except ParselError:
+        return None
 
 
 class ReplayProvider(LLMProvider):
@@ -85,10 +126,10 @@ class ReplayProvider(LLMProvider):
     cacheable = False
 
     def __init__(self) -> None:
-        self._files: dict[tuple[str, float], dict[tuple[str, int], str]] = {}
+        self._files: dict[tuple[str, float], dict[tuple[str, int], Recorded]] = {}
         self._lock = threading.Lock()
 
-    def _replies(self, path: str) -> dict[tuple[str, int], str]:
+    def _replies(self, path: str) -> dict[tuple[str, int], Recorded]:
         p = Path(path)
         try:
             stamp = (str(p.resolve()), p.stat().st_mtime)
@@ -113,7 +154,12 @@ class ReplayProvider(LLMProvider):
                 reply = replies.get((task, sample)) if key != task else None
             if reply is None:
                 raise ParselError(f"{path}: no recorded reply for task {key!r} sample {sample}")
-            out.append(Completion(reply, meta={"replayed": True}))
+            if reply.prompt_sha256 is not None and reply.prompt_sha256 != _sha256(prompt):
+                asked = _request(prompt)
+                what = (f"request {reply.request!r}, not {asked!r}" if reply.request and asked
+                        and reply.request != asked else "a different prompt (shape, request or template)")
+                raise ReplayMismatch(f"{path}: the reply recorded for task {key!r} sample {sample} answers {what}")
+            out.append(Completion(reply.reply, meta={"replayed": True}))
         return out
 
 

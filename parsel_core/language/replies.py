@@ -22,7 +22,7 @@ from typing import Any
 
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
-from parsel_core.language.api import ReplyError, SeedReply, extract_code, parse_code, parse_seed_code
+from parsel_core.language.api import ReplyError, SeedReply, parse_code, parse_seed_code, read_blocks
 from parsel_core.ops import EditOp, op_to_dict
 
 #: Hint types the solver understands (paper 6.2.1, plus ``keep`` for parts to hold fixed).
@@ -57,7 +57,11 @@ def _string(node: ast.expr, what: str) -> str:
 
 def parse_hints(reply: str, shape: ShapeGraph) -> dict[str, str]:
     """``hints = {part or label: type}`` -> hint type per part id (labels expand to their parts)."""
-    value = _single_assignment(extract_code(reply), "hints")
+    return read_blocks(reply, lambda code: hints_code(code, shape))[0]
+
+
+def hints_code(code: str, shape: ShapeGraph) -> dict[str, str]:
+    value = _single_assignment(code, "hints")
     if not isinstance(value, ast.Dict):
         raise ReplyError("hints must be a dict literal like {\"leg\": \"translate\"}")
     by_label: dict[str, list[str]] = {}
@@ -86,7 +90,11 @@ def parse_hints(reply: str, shape: ShapeGraph) -> dict[str, str]:
 
 def parse_validity(reply: str) -> bool:
     """``valid = True`` (the relation should hold) or ``valid = False`` (the request breaks it)."""
-    value = _single_assignment(extract_code(reply), "valid")
+    return read_blocks(reply, validity_code)[0]
+
+
+def validity_code(code: str) -> bool:
+    value = _single_assignment(code, "valid")
     if isinstance(value, ast.Constant) and isinstance(value.value, bool):
         return value.value
     raise ReplyError(f"valid must be True or False, got {ast.unparse(value)!r}")
@@ -94,7 +102,11 @@ def parse_validity(reply: str) -> bool:
 
 def parse_requests(reply: str) -> tuple[str, ...]:
     """``requests = ["make the legs longer", ...]``: edit requests (proxydural, variations)."""
-    value = _single_assignment(extract_code(reply), "requests")
+    return read_blocks(reply, requests_code)[0]
+
+
+def requests_code(code: str) -> tuple[str, ...]:
+    value = _single_assignment(code, "requests")
     if not isinstance(value, (ast.List, ast.Tuple)):
         raise ReplyError("requests must be a list of strings")
     items = tuple(" ".join(_string(e, "each request").split()) for e in value.elts)
@@ -109,9 +121,12 @@ def parse_requests(reply: str) -> tuple[str, ...]:
 
 def parse_one_shot(reply: str, shape: ShapeGraph, registry: Mapping[str, type[EditOp]] | None = None):
     """A whole program in the core's text form (the paper's one-shot baseline), checked against the shape."""
+    return read_blocks(reply, lambda code: one_shot_code(code, shape, registry))[0]
+
+
+def one_shot_code(code: str, shape: ShapeGraph, registry: Mapping[str, type[EditOp]] | None = None):
     from parsel_core.program import Program
 
-    code = extract_code(reply)
     try:
         program = Program.from_text(code, registry=registry, source="reply")
         program.validate(shape)
@@ -123,7 +138,7 @@ def parse_one_shot(reply: str, shape: ShapeGraph, registry: Mapping[str, type[Ed
 
 
 def parse_seed(reply: str, shape: ShapeGraph, registry: Mapping[str, type[EditOp]] | None = None) -> SeedReply:
-    return parse_seed_code(extract_code(reply), shape, registry)
+    return read_blocks(reply, lambda code: parse_seed_code(code, shape, registry))[0]
 
 
 # -- what votes compare -------------------------------------------------------------------

@@ -19,11 +19,11 @@ from parsel_core.errors import ParselError
 PROMPT_DIR = Path(__file__).with_name("prompts")
 #: Every template the language layer uses, with the placeholders each needs.
 TEMPLATE_FIELDS: dict[str, tuple[str, ...]] = {
-    "seed_edit": ("shape", "request"),
-    "type_hints": ("shape", "request"),
-    "reflection_validity": ("shape", "request", "relation"),
-    "group_validity": ("shape", "request", "relation"),
-    "one_shot": ("shape", "request"),
+    "seed_edit": ("shape", "picture", "request", "operators"),
+    "type_hints": ("shape", "picture", "request"),
+    "reflection_validity": ("shape", "picture", "request", "relation"),
+    "group_validity": ("shape", "picture", "request", "relation"),
+    "one_shot": ("shape", "picture", "request"),
     "proxydural": ("shape", "count"),
     "variations": ("shape", "request", "count"),
 }
@@ -53,6 +53,38 @@ def get_template(name: str) -> str:
         known = ", ".join(sorted(set(templates) | set(TEMPLATE_FIELDS)))
         raise ParselError(f"unknown prompt template {name!r} (known: {known})")
     return path.read_text(encoding="utf-8")
+
+
+#: Operators the seed-edit template describes in its own words; every other registered
+#: operator (a plugin's) is listed by :func:`describe_operators` from its signature and docstring.
+DESCRIBED_OPERATORS = frozenset({"translate", "rotate", "scale_1d", "scale_2d", "scale_3d", "shear",
+                                 "change_count", "change_delta", "keep_fixed"})
+
+
+def operator_signature(cls) -> str:
+    """``twist(target, origin=..., axis=..., amount=...)``: how the reply API calls an operator."""
+    import dataclasses
+
+    skip = {"operand", "feature", "amount"}
+    names = [f.name for f in dataclasses.fields(cls) if f.name not in skip]
+    first = "group" if getattr(cls, "acts_on", "part") == "group" else "target"
+    return f"{cls.name}({', '.join([first, *(f'{n}=...' for n in names), 'amount=...'])})"
+
+
+def describe_operators(registry) -> str:
+    """One bullet per registered operator the template does not already describe (plugin
+    operators), with its signature, its fields' kinds and its docstring's first paragraph."""
+    lines = []
+    for name in sorted(registry):
+        if name in DESCRIBED_OPERATORS:
+            continue
+        cls = registry[name]
+        doc = " ".join((cls.__doc__ or "").strip().split("\n\n")[0].split())
+        kinds = [f"`{f}` is a direction" for f in getattr(cls, "unit_fields", ())]
+        kinds += [f"`{f}` is a point" for f in getattr(cls, "point_fields", ())]
+        detail = f" ({'; '.join(kinds)})" if kinds else ""
+        lines.append(f"  - `{operator_signature(cls)}` (from a plugin): {doc or 'no description'}{detail}\n")
+    return "".join(lines)
 
 
 def render(name: str, **fields: object) -> str:

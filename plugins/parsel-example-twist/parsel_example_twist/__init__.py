@@ -23,6 +23,9 @@ class Twist(EditOp):
     """Rotate points about axis (origin, axis) by ``amount`` radians per unit of height."""
 
     name: ClassVar[str] = "twist"
+    #: Words that ask for this operator in a request ("twist the legs"): the offline provider
+    #: reads them (docs/plugins.md, "Words for the offline provider").
+    words: ClassVar[tuple[str, ...]] = ("twist", "twirl", "wring")
     unit_fields: ClassVar[tuple[str, ...]] = ("axis",)
     point_fields: ClassVar[tuple[str, ...]] = ("origin",)
     origin: Vector = (0.0, 0.0, 0.0)

@@ -7,7 +7,12 @@ litellm reads (``OPENAI_API_KEY``, ``ANTHROPIC_API_KEY`` ...) or the ``api_key``
 
 Calls time out after ``timeout`` seconds and are retried ``retries`` times with
 exponential backoff on rate limits (429), server errors (5xx), dropped connections and
-timeouts; other errors (a bad key, an unknown model) fail at once. Every error is a
+timeouts; other errors (a bad key, an unknown model) fail at once. A call that fails for
+good stops the run (``LiteLLMError.stops_run``): the other prompts are not sent.
+
+With the ``image`` option (PNG bytes, ``parsel edit --with-image``) the prompt goes as a
+text part followed by an image part (a base64 data URL); a model that litellm's model
+list says takes no images is refused before any call. Every error is a
 :class:`LiteLLMError` with one line saying what happened. Token counts and cost (from
 litellm's bundled price list) come back with each :class:`Completion`.
 
@@ -18,6 +23,7 @@ the price list from the network.
 
 from __future__ import annotations
 
+import base64
 import os
 import random
 import threading
@@ -39,7 +45,14 @@ _module: Any = None
 
 
 class LiteLLMError(ParselError):
-    """A call that failed for good (after retries, or at once for errors retrying cannot fix)."""
+    """A call that failed for good (after retries, or at once for errors retrying cannot fix).
+
+    ``stops_run`` tells the language layer not to send the run's other calls: an error that
+    survived the retries (a bad key, a bad request, an unknown model, a server that keeps
+    failing or hangs) would only repeat for each of them.
+    """
+
+    stops_run = True
 
 
 def load_litellm() -> Any:
@@ -99,6 +112,18 @@ def _first_line(exc: BaseException) -> str:
     return text[:300] + ("..." if len(text) > 300 else "")
 
 
+def check_vision(litellm: Any, model: str) -> None:
+    """Refuse an image for a model litellm's model list knows but does not mark as taking
+    images; a model the list does not know (a local server's) gets the image."""
+    try:
+        info = litellm.get_model_info(model=model)
+    except Exception:  # not in the list: nothing known either way
+        return
+    if isinstance(info, dict) and not info.get("supports_vision"):
+        raise LiteLLMError(f"litellm: {model} does not take images (litellm's model list); "
+                           "leave out --with-image or choose a vision model")
+
+
 class LiteLLMProvider(LLMProvider):
     """Prompts any litellm model; options: model, api_base, api_key, timeout, retries, backoff,
     temperature, max_tokens."""
@@ -118,8 +143,13 @@ class LiteLLMProvider(LLMProvider):
         timeout = float(options.get("timeout") or DEFAULT_TIMEOUT)
         retries = int(options["retries"]) if options.get("retries") is not None else DEFAULT_RETRIES
         backoff = float(options["backoff"]) if options.get("backoff") is not None else DEFAULT_BACKOFF
+        content: Any = prompt
+        if options.get("image") is not None:
+            check_vision(litellm, model)
+            url = "data:image/png;base64," + base64.b64encode(bytes(options["image"])).decode("ascii")
+            content = [{"type": "text", "text": prompt}, {"type": "image_url", "image_url": {"url": url}}]
         kwargs: dict[str, Any] = {
-            "model": model, "messages": [{"role": "user", "content": prompt}], "timeout": timeout,
+            "model": model, "messages": [{"role": "user", "content": content}], "timeout": timeout,
             "num_retries": 0, "max_retries": 0,
         }
         api_base = options.get("api_base")

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import networkx as nx
 import numpy as np
@@ -101,6 +101,7 @@ class Mention:
     whole: bool = False
     others: bool = False
     qualifiers: tuple[tuple[str, ...], ...] = ()
+    pronoun: bool = False
 
     @property
     def qualified(self) -> bool:
@@ -119,6 +120,10 @@ class Clause:
     mentions: list[Mention]
     directions: list[str]
     number: int | None = None
+    #: How far the edit goes: ("small"|"large", None), ("percent", p), ("factor", f), ("degrees", d).
+    degree: tuple[str, float | None] | None = None
+    #: A world axis a span phrase names (``from front to back``: z).
+    span_axis: int | None = None
 
 
 @dataclass
@@ -148,6 +153,13 @@ class Interpreter:
         self.phrases = self._phrases()
         #: Symmetry relations the request being read breaks (they no longer tie parts together).
         self.broken: set[str] = set()
+        #: Words that ask for a plugin's operator (``twist``), from the operators' ``words`` attribute.
+        self.plugin_words = plugin_words()
+        self._vocabulary: frozenset[str] | None = None
+        #: Messages about clauses of unknown words that named no part and no edit (left out).
+        self.chatter: list[str] = []
+        #: Parts the request says to keep, which a whole-object edit does not pick as its seed.
+        self.kept: set[str] = set()
 
     # -- vocabulary of this shape ---------------------------------------------------------
 
@@ -241,16 +253,24 @@ class Interpreter:
     # -- reading ---------------------------------------------------------------------------
 
     def interpret(self, request: str) -> Interpretation:
-        words = lx.tokens(request)
+        words = lx.rewrite(lx.tokens(request))
         if not any(w != "," for w in words):
             raise NotUnderstood("the request is empty")
-        clauses = [c for c in (self.clause(tokens, connector) for tokens, connector in self.split(words)) if c]
+        words, corrections = self.correct(words)
+        words = self.drop_purpose(words)
+        clauses = self.resolve([c for c in (self.clause(tokens, connector) for tokens, connector in self.split(words))
+                                if c])
         primary_index = next((i for i, c in enumerate(clauses) if any(it.action != "keep" for it in c.intents)),
                              None)
         if primary_index is None:
+            if self.chatter:
+                raise NotUnderstood(self.chatter[0])
             raise NotUnderstood(f"'{request}' says what to keep but not what to change")
         primary = clauses[primary_index]
+        self.kept = {p for c in clauses if c is not primary and all(it.action == "keep" for it in c.intents)
+                     for m in c.mentions if not m.whole for p in m.parts}
         out = Interpretation(request)
+        out.reasons.extend(f"I read '{wrong}' as '{right}'." for wrong, right in corrections)
         self.find_breaks(clauses, out)
         out.ops.extend(self.seed_ops(primary, out.reasons))
         primary_parts = {p for m in primary.mentions for p in m.parts}
@@ -261,6 +281,129 @@ class Interpreter:
                 out.ops.extend(self.seed_ops(clause, out.reasons))
             else:
                 self.secondary(clause, primary_parts, out)
+        out.ops = list(dict.fromkeys(out.ops))  # the same edit asked twice is one edit, not two compounding
+        return out
+
+    # -- words before clauses ---------------------------------------------------------------
+
+    def _known(self, word: str) -> bool:
+        if word in self.vocabulary or lx.is_number(word) or not word.isalpha():
+            return True
+        return lx.singular(word) in self.vocabulary or lx.lemma(word) in self.vocabulary or \
+            _base_verb(word) in self.vocabulary
+
+    @property
+    def vocabulary(self) -> frozenset[str]:
+        if self._vocabulary is None:
+            words = set(lx.FILLERS) | set(lx.INTENTS) | set(lx.CHANGE_VERBS) | set(lx.POSITIONAL_COMPARATIVES) \
+                | set(lx.COUNT_WORDS) | set(lx.ADJECTIVES) | set(lx.EXTRA_COMPARATIVES) | set(lx.DIMENSION_NOUNS) \
+                | set(lx.DIRECTIONS) | set(lx.QUALIFIERS) | set(lx.NUMBER_WORDS) | set(lx.WHOLE_WORDS) \
+                | set(lx.OTHERS_WORDS) | set(lx.NEGATIONS) | set(lx.PLAIN_VERBS) | set(lx.SMALL_DEGREE) \
+                | set(lx.LARGE_DEGREE) | set(lx.FACTORS) | set(lx.CLAUSE_BREAKS) | set(lx.CLAUSE_STARTERS) \
+                | set(lx.PRONOUNS) | set(lx.PART_NOUNS) | set(lx.DETERMINERS) | set(self.plugin_words) \
+                | {w for words in lx.CATEGORIES.values() for w in words} | {"and", "or", "as", "to", "enough"}
+            words |= {w for key in self.phrases for w in key} | set(self.category)
+            self._vocabulary = frozenset(words)
+        return self._vocabulary
+
+    def _targets(self) -> dict[str, str]:
+        """Words a typo may stand for: this shape's part words (and plurals), its category, edit words."""
+        targets: dict[str, str] = {}
+        for key in self.phrases:
+            for word in key:
+                targets.setdefault(word, word)
+                targets.setdefault(word + "s", word + "s")
+        for word in (*self.category, *lx.INTENTS, *lx.POSITIONAL_COMPARATIVES, *lx.ADJECTIVES,
+                     *lx.EXTRA_COMPARATIVES, *lx.DIMENSION_NOUNS, *lx.DIRECTIONS, *lx.QUALIFIERS, *self.plugin_words):
+            targets.setdefault(word, word)
+        targets.update({"shelves": "shelves"} if "shelf" in targets else {})
+        return targets
+
+    def correct(self, words: list[str]) -> tuple[list[str], list[tuple[str, str]]]:
+        """Misspelt words read as the one word of this shape's vocabulary they are one edit away from
+        (two for words of six letters or more; a swap of neighbours is one edit), starting with the
+        same letter; a word with no such unique match is left for the refusal to name."""
+        from rapidfuzz.distance import DamerauLevenshtein
+
+        out, corrections = [], []
+        targets = None
+        for word in words:
+            if len(word) < 3 or self._known(word):
+                out.append(word)
+                continue
+            targets = targets or self._targets()
+            limit = 1 if len(word) <= 5 else 2
+            best: list[tuple[int, str]] = []
+            for target in targets:
+                if target[0] != word[0] or abs(len(target) - len(word)) > limit:
+                    continue
+                distance = DamerauLevenshtein.distance(word, target, score_cutoff=limit)
+                if distance <= limit:
+                    best.append((distance, target))
+            # Ties go to words at least as long as the typo (a dropped letter is the commonest slip:
+            # "longr" is "longer", not "long").
+            best.sort(key=lambda item: (item[0], len(item[1]) < len(word), abs(len(item[1]) - len(word))))
+            if best and (len(best) == 1 or best[0][0] < best[1][0]
+                         or (len(best[0][1]) >= len(word)) != (len(best[1][1]) >= len(word))
+                         or abs(len(best[0][1]) - len(word)) < abs(len(best[1][1]) - len(word))):
+                out.append(best[0][1])
+                corrections.append((word, best[0][1]))
+            else:
+                out.append(word)
+        return out, corrections
+
+    def drop_purpose(self, words: list[str]) -> list[str]:
+        """``for my kids``, ``for the kitchen``, ``in my room``: who or where the edit is for says
+        nothing about the edit, when the words after the preposition are not the shape's."""
+        out: list[str] = []
+        i = 0
+        while i < len(words):
+            if words[i] in ("for", "in", "at", "to") and i + 1 < len(words):
+                k = i + 1
+                while k < len(words) and words[k] in lx.DETERMINERS:
+                    k += 1
+                end = k
+                while end < len(words) and words[end] != "," and not self._known(words[end]):
+                    end += 1
+                owned = words[i] == "for" or (k > i + 1 and words[i + 1] in ("my", "our", "your", "their"))
+                if end > k and owned:
+                    i = end
+                    continue
+            out.append(words[i])
+            i += 1
+        return out
+
+    def resolve(self, clauses: list[Clause]) -> list[Clause]:
+        """Topics and pronouns: ``the seat, make it deeper`` edits the seat; a clause that only names
+        parts lends them to the next one; a clause with an edit and no part (``longer and taller``)
+        edits the parts of the clause before it; an object word next to a part word (``the chair
+        legs``) is the part's, not an edit of the whole object."""
+        out: list[Clause] = []
+        antecedent: list[Mention] = []
+        for clause in clauses:
+            parts = [m for m in clause.mentions if not m.whole and not m.others]
+            pronouns = [m for m in clause.mentions if m.pronoun]
+            if parts:
+                clause.mentions = [m for m in clause.mentions if not m.whole]
+            elif pronouns and antecedent:
+                clause.mentions = [m for m in clause.mentions if not m.pronoun] + list(antecedent)
+            elif not clause.mentions and antecedent and clause.intents:
+                clause.mentions = list(antecedent)
+            elif not clause.mentions and clause.intents and any(it.action != "keep" for it in clause.intents):
+                if all(it.action in ("size", "uniform", "comparative", "move") for it in clause.intents):
+                    clause.mentions = [Mention(tuple(self.shape.parts), 0, 0, ("it",), whole=True)]
+                else:
+                    raise NotUnderstood(f"'{clause.text}' does not say which part to edit")
+            if any(not m.pronoun for m in clause.mentions):
+                antecedent = [m for m in clause.mentions if not m.pronoun]
+            if not clause.intents:
+                continue  # a topic ("the seat, ..."): its parts go to the next clause
+            self.settle(clause)
+            out.append(clause)
+        if not out and clauses:
+            last = clauses[-1]
+            raise NotUnderstood(f"'{last.text}' names {', '.join(m.text for m in last.mentions)} but no edit I "
+                                "know (such as wider, longer, raise, tilt, taper, more, keep)")
         return out
 
     def independent(self, clause: Clause, primary: Clause) -> bool:
@@ -305,7 +448,9 @@ class Interpreter:
     def clause(self, words: list[str], connector: str | None) -> Clause | None:
         text = " ".join(words)
         used = [False] * len(words)
+        span_axis = self.find_span(words, used)
         mentions = self.find_mentions(words, used)
+        degree = self.find_degree(words, used)
         intents = self.find_intents(words, used, mentions)
         directions = []
         for i, word in enumerate(words):
@@ -316,21 +461,34 @@ class Interpreter:
         if number is None:
             number = next((int(w) for w in words if w.isdigit() and 0 < int(w) < 100), None)
         left = [w for i, w in enumerate(words) if not used[i] and w not in lx.FILLERS and not lx.is_number(w)
-                and w not in lx.NUMBER_WORDS and w not in ("and", "or")]
+                and w not in lx.NUMBER_WORDS and w not in ("and", "or", "as", "enough") and w not in lx.DETERMINERS
+                and w not in lx.PRONOUNS]
         missing = [w for w in left if lx.singular(w) in lx.PART_NOUNS]
         if missing:
             have = ", ".join(sorted(self.labels))
             raise NotUnderstood(f"the {self.shape.name} has no {missing[0]} (its parts are: {have})")
         if left:
             unknown = ", ".join(f"'{w}'" for w in dict.fromkeys(left))
-            raise NotUnderstood(f"I do not understand {unknown} in '{text}'")
+            message = f"I do not understand {unknown} in '{text}'; {self.suggestion()}"
+            if not intents and not mentions:
+                self.chatter.append(message)
+                return None  # chatter around the request ("hey", "my guests say"): no part, no edit
+            raise NotUnderstood(message)
         if not intents and not mentions:
             return None
-        if not intents:
-            raise NotUnderstood(f"'{text}' names {', '.join(m.text for m in mentions)} but no edit I know "
-                                f"(such as wider, longer, raise, tilt, taper, more, keep)")
-        intents, directions = self.combine(intents, directions, text)
-        if any(it.action not in ("size", "uniform", "comparative", "keep") for it in intents):
+        return Clause(text, connector, intents, mentions, directions, number, degree, span_axis)
+
+    def suggestion(self) -> str:
+        """A phrasing this shape supports, for refusals."""
+        label = max(self.labels, key=lambda name: (len(self.labels[name]), name))
+        noun = label.replace("_", " ") + ("s" if len(self.labels[label]) > 1 else "")
+        return f"try a phrasing such as 'make the {noun} longer' or 'move the {noun} up'"
+
+    def settle(self, clause: Clause) -> None:
+        """What depends on the whole clause: direction words, whole-object names, position words."""
+        intents, directions = self.combine(clause.intents, clause.directions, clause.text)
+        mentions = clause.mentions
+        if any(it.action in ("count", "spread") for it in intents):
             # "add another shelf" on a shelf: the object's name is also the name of a part.
             for n, mention in enumerate(mentions):
                 key = (lx.singular(mention.words[0]),) if mention.whole and len(mention.words) == 1 else None
@@ -338,18 +496,60 @@ class Interpreter:
                     labels = self.phrases[key]
                     mentions[n] = Mention(tuple(p for label in labels for p in self.labels[label]), mention.start,
                                           mention.end, mention.words, labels)
-        if not mentions:
-            if all(it.action in ("size", "uniform") for it in intents):
-                mentions = [Mention(tuple(self.shape.parts), 0, 0, ("it",), whole=True)]
-            else:
-                raise NotUnderstood(f"'{text}' does not say which part to edit")
         # Position words left after a part noun ("the legs at the front") narrow that part.
-        if directions and all(it.action in ("size", "thickness", "uniform", "count", "keep") for it in intents):
+        sides = [("top" if d == "up" else "bottom" if d == "down" else d) for d in directions]
+        sides = [d for d in sides if d in ("left", "right", "top", "bottom", "front", "back")]
+        if sides and all(it.action in ("size", "thickness", "uniform", "count", "keep") for it in intents):
             last = mentions[-1]
             if not last.whole and not last.others:
-                mentions[-1] = self.qualify(last, [tuple(d if d != "up" else "top" for d in directions)])
+                mentions[-1] = self.qualify(last, [tuple(sides)])
                 directions = []
-        return Clause(text, connector, intents, mentions, directions, number)
+        clause.intents, clause.directions, clause.mentions = intents, directions, mentions
+
+    def find_span(self, words: list[str], used: list[bool]) -> int | None:
+        """``from front to back``, ``left to right``: the world axis between two opposite sides."""
+        for i in range(len(words) - 2):
+            a, b = lx.DIRECTIONS.get(words[i]), lx.DIRECTIONS.get(words[i + 2])
+            if words[i + 1] == "to" and a in WORLD and b in WORLD and WORLD[a][0] == WORLD[b][0] and a != b:
+                for k in range(i, i + 3):
+                    used[k] = True
+                if i > 0 and words[i - 1] == "from":
+                    used[i - 1] = True
+                return WORLD[a][0]
+        return None
+
+    def find_degree(self, words: list[str], used: list[bool]) -> tuple[str, float | None] | None:
+        """Degree words: small (``a bit``, ``slightly``), large (``a lot``, ``much``), a percentage,
+        a factor (``twice as``, ``half as``, ``3 times as``), or an angle in degrees."""
+        degree = None
+        for i, word in enumerate(words):
+            if used[i]:
+                continue
+            nxt = words[i + 1] if i + 1 < len(words) else ""
+            match = re.fullmatch(r"(\d+(?:\.\d+)?)%", word)
+            if match or (lx.is_number(word) and nxt in ("%", "percent")):
+                value = float(match.group(1) if match else word)
+                degree = ("percent", value)
+                used[i] = True
+                if not match:
+                    used[i + 1] = True
+            elif lx.is_number(word) and nxt in ("degree", "degrees"):
+                degree = ("degrees", float(word))
+                used[i] = used[i + 1] = True
+            elif (word in lx.FACTORS or lx.is_number(word) or word in lx.NUMBER_WORDS) and nxt == "times":
+                value = float(word) if lx.is_number(word) else float(lx.FACTORS.get(word, lx.NUMBER_WORDS.get(word, 1)))
+                degree = ("factor", value)
+                used[i] = used[i + 1] = True
+            elif word in lx.FACTORS:
+                degree = ("factor", lx.FACTORS[word])
+                used[i] = word not in lx.CHANGE_VERBS  # "double the width": the verb still says what grows
+            elif word in lx.SMALL_DEGREE:
+                degree = degree or ("small", None)
+                used[i] = True
+            elif word in lx.LARGE_DEGREE:
+                degree = degree or ("large", None)
+                used[i] = True
+        return degree
 
     def find_mentions(self, words: list[str], used: list[bool]) -> list[Mention]:
         singular = [lx.singular(w) for w in words]
@@ -367,8 +567,9 @@ class Interpreter:
                 used[i] = True
                 i += 1
                 continue
-            if word in lx.WHOLE_WORDS:
-                mentions.append(Mention(tuple(self.shape.parts), i, i + 1, (word,), whole=True))
+            if word in lx.WHOLE_WORDS or word in ("them", "they"):
+                mentions.append(Mention(tuple(self.shape.parts), i, i + 1, (word,), whole=True,
+                                        pronoun=word in ("it", "them", "they")))
                 used[i] = True
                 i += 1
                 continue
@@ -396,8 +597,9 @@ class Interpreter:
         for mention in mentions:
             if merged and not merged[-1].whole and merged[-1].end == mention.start and len(merged[-1].words) == 1 \
                     and merged[-1].words[0] in lx.QUALIFIERS and not mention.whole:
-                merged.pop()
-                mention = Mention(mention.parts, mention.start - 1, mention.end, mention.words, mention.labels)
+                word = merged.pop().words[0]
+                mention = self.qualify(Mention(mention.parts, mention.start - 1, mention.end, mention.words,
+                                               mention.labels), [(lx.QUALIFIERS[word],)])
             merged.append(mention)
         mentions = merged
         # "the back" with no label after it: the parts of the object's back.
@@ -411,6 +613,8 @@ class Interpreter:
             prev = words[i - 1] if i else ""
             if nxt_is_part or not (prev in ("the", "its") or prev in self.category):
                 continue
+            if i >= 2 and words[i - 2] in ("in", "at", "on", "to", "towards") and any(m.end <= i - 2 for m in mentions):
+                continue  # "the legs in the back": a position of the legs, not the chair's back
             labels = self._labels_for(word)
             if not labels:
                 continue
@@ -498,6 +702,27 @@ class Interpreter:
             if used[i]:
                 continue
             base = lx.lemma(word)
+            prev = words[i - 1] if i else ""
+            nxt = words[i + 1] if i + 1 < len(words) else ""
+            if word in self.plugin_words:
+                intents.append(Intent("plugin", 1, direction=self.plugin_words[word]))
+                used[i] = True
+                continue
+            if word in lx.ADJECTIVES or word in lx.EXTRA_COMPARATIVES:
+                # "too long" -> shorter; "less wide" -> narrower; "(more|as|not) wide (enough)" -> wider.
+                comparative = lx.ADJECTIVES.get(word) or lx.EXTRA_COMPARATIVES[word]
+                invert = prev in ("too", "less", "overly") and not used[i - 1]
+                intent = self._comparative(comparative)
+                if invert:
+                    intent = Intent(intent.action, -intent.sign, intent.dimension, intent.direction)
+                    used[i - 1] = True
+                elif prev in ("more", "as") and i and not used[i - 1]:
+                    used[i - 1] = True
+                intents.append(intent)
+                used[i] = True
+                if nxt == "enough":
+                    used[i + 1] = True
+                continue
             if word in lx.NEGATIONS:
                 k = i + 1
                 while k < len(words) and words[k] in ("to", "do", "not", "be") and not used[k]:
@@ -507,6 +732,13 @@ class Interpreter:
                     intents.append(Intent("keep"))
                     for j in range(i, k + 1):
                         used[j] = True
+                continue
+            if word in ("more", "less", "extra", "additional") and nxt in lx.DIMENSION_NOUNS \
+                    and lx.DIMENSION_NOUNS[nxt][0] != "count":
+                # "more height", "less width": a noun form of the comparative.
+                action, dimension = lx.DIMENSION_NOUNS[nxt]
+                intents.append(Intent(action, 1 if word != "less" else -1, dimension))
+                used[i] = used[i + 1] = True
                 continue
             if word in lx.POSITIONAL_COMPARATIVES:
                 sign = lx.POSITIONAL_COMPARATIVES[word]
@@ -524,19 +756,31 @@ class Interpreter:
                 action, dimension = lx.DIMENSION_NOUNS[words[noun]]
                 intents.append(Intent(action, sign, dimension))
                 used[i] = used[noun] = True
-            elif word in lx.COUNT_WORDS:
+            elif word in lx.COUNT_WORDS and nxt not in lx.ADJECTIVES:
                 count_words.append(Intent("count", lx.COUNT_WORDS[word]))
                 used[i] = True
             elif base in lx.INTENTS:
                 intents.append(lx.INTENTS[base])
                 used[i] = True
+            elif base in lx.EXTRA_COMPARATIVES:
+                intents.append(lx.INTENTS[lx.EXTRA_COMPARATIVES[base]])
+                used[i] = True
         if not intents:
+            intents = count_words
+        elif count_words and any(it.action in ("move", "uniform") and it.direction is None for it in intents):
+            # "put in another shelf": the count word says what the verb does.
             intents = count_words
         unique: list[Intent] = []
         for intent in intents:
             if intent not in unique and not (intent.action == "keep" and any(u.action == "keep" for u in unique)):
                 unique.append(intent)
         return unique
+
+    @staticmethod
+    def _comparative(word: str) -> Intent:
+        if word in lx.POSITIONAL_COMPARATIVES:
+            return Intent("comparative", lx.POSITIONAL_COMPARATIVES[word])
+        return lx.INTENTS[word]
 
     def combine(self, intents: list[Intent], directions: list[str], text: str) -> tuple[list[Intent], list[str]]:
         """Settle intents that depend on direction words (scale up, move apart)."""
@@ -568,6 +812,10 @@ class Interpreter:
                 ops.extend(self.edit(intent, mention, clause, reasons))
         if not ops:
             raise NotUnderstood(f"'{clause.text}' asks for no edit")
+        if clause.degree is not None:
+            ops = [with_degree(op, clause.degree) for op in ops]
+            reasons.append(f"'{clause.text}' says how far: at x = 1 the edit reaches "
+                           f"{', '.join(op.amount for op in ops)}.")
         return ops
 
     def secondary(self, clause: Clause, primary_parts: set[str], out: Interpretation) -> None:
@@ -619,11 +867,23 @@ class Interpreter:
     def whole_edit(self, intent: Intent, clause: Clause, reasons: list[str]) -> list[SeedOp]:
         main = self.main_part()
         name = self.shape.name
+        if intent.action == "move" and intent.direction in ("up", "down") and not clause.directions:
+            # "raise the chair", "lower the cabinet": the object gets taller or lower.
+            intent = Intent("size", 1 if intent.direction == "up" else -1, "height")
         if intent.action == "size":
             dimension = intent.dimension
+            if clause.span_axis is not None:
+                dimension = ("width", "height", "depth")[clause.span_axis]
             if dimension == "length":
                 dimension = "height" if intent.sign < 0 and "shorter" in clause.text.split() else (
                     "width" if self.part(main).size[0] >= self.part(main).size[2] else "depth")
+            if dimension == "height" and not self.supports():
+                # Without legs, the height of the object is the height of its tallest part.
+                free = [p for p in self.shape.parts if p not in self.kept] or list(self.shape.parts)
+                tallest = max(free, key=lambda p: (round(float(self.part(p).size[1]), 6), p == main))
+                reasons.append(f"The whole {name} should get {'taller' if intent.sign > 0 else 'lower'}; {tallest} "
+                               "is its tallest part, so the seed edit stretches it along y from its bottom.")
+                return [self._scale_1d(tallest, 1, intent.sign)]
             if dimension == "height" and self.supports():
                 mention = Mention(self.supports(), 0, 0, ("supports",), tuple(
                     sorted({self.part(p).label for p in self.supports()})))
@@ -661,21 +921,23 @@ class Interpreter:
         if len(mention.labels) > 1:
             # A part made of several labels (a chair's back): stretch the piece that spans that dimension.
             def reach(comp: tuple[str, ...]) -> float:
-                axis = self._dimension_axis(dimension, comp[0])
+                axis = self._dimension_axis(dimension, comp[0], clause.span_axis)
                 return float(self.part(comp[0]).size[axis])
 
             comps = [max(comps, key=lambda c: (reach(c), -len(c[0]), c[0]))]
         ops = []
         for comp in comps:
             rep = comp[0]
-            axis = self._dimension_axis(dimension, rep)
+            axis = self._dimension_axis(dimension, rep, clause.span_axis)
             ops.append(self._scale_1d(rep, axis, intent.sign))
             reasons.append(f"The {mention.text} should get {'longer' if intent.sign > 0 else 'shorter'} along "
                            f"{AXIS_WORDS[axis]} ({dimension}); {rep} is edited"
                            + (" and the parts mirroring it follow." if len(comp) > 1 else "."))
         return ops
 
-    def _dimension_axis(self, dimension: str | None, pid: str) -> int:
+    def _dimension_axis(self, dimension: str | None, pid: str, span: int | None = None) -> int:
+        if span is not None and dimension in ("length", None):
+            return span
         if dimension == "length":
             return self._longest(self.part(pid).size)
         return {"width": 0, "height": 1, "depth": 2}[dimension or "width"]
@@ -860,8 +1122,36 @@ class Interpreter:
                            f"face across {AXIS_WORDS[axis]}.")
         return ops
 
+    def edit_plugin(self, intent: Intent, mention: Mention, clause: Clause, reasons: list[str]) -> list[SeedOp]:
+        """A plugin operator asked for by one of its words: direction fields along the part's long
+        axis, the origin at its centre, the amount ``x``."""
+        from parsel_core.plugins import edit_operators
+
+        cls = edit_operators()[intent.direction]
+        ops = []
+        for comp in self._reps(mention):
+            rep = comp[0]
+            axis = AXIS_WORDS[self._longest(self.part(rep).size)]
+            origin = Origin("center", rep) if "origin" in getattr(cls, "point_fields", ()) else None
+            dirs = tuple((name, axis) for name in getattr(cls, "unit_fields", ()))
+            ops.append(SeedOp(cls.name, rep, GROW, origin=origin, dirs=dirs))
+            reasons.append(f"'{clause.text}' asks for the {cls.name} operator on {rep}, about its long axis "
+                           f"{axis} through its centre.")
+        return ops
+
+    def _group_within(self, mention: Mention):
+        """The largest translation or rotation group whose members the mention names."""
+        groups = [g for g in self.shape.groups() if set(g.members) <= set(mention.parts)]
+        return max(groups, key=lambda g: (len(g.members), g.id)) if groups else None
+
     def edit_spread(self, intent: Intent, mention: Mention, clause: Clause, reasons: list[str]) -> list[SeedOp]:
         ops = []
+        group = self._group_within(mention)
+        if group is not None and not mention.qualified:
+            reasons.append(f"The {mention.text} are a repeated row ({group.id}); spacing them "
+                           f"{'out' if intent.sign > 0 else 'closer'} changes the group's step.")
+            return [SeedOp("change_delta", group.id, GROW if intent.sign > 0 else SHRINK, mode="bottom_up",
+                           group=True)]
         for comp in self._reps(mention):
             group = self.group_of(comp)
             if group is not None and set(group.members) == set(comp):
@@ -885,7 +1175,7 @@ class Interpreter:
         return ops
 
     def edit_count(self, intent: Intent, mention: Mention, clause: Clause, reasons: list[str]) -> list[SeedOp]:
-        group = self.group_of(mention.parts[:1]) if mention.parts else None
+        group = self._group_within(mention) or (self.group_of(mention.parts[:1]) if mention.parts else None)
         if group is None:
             raise NotUnderstood(f"'{clause.text}': the {mention.text} are not a repeated row or ring, so their number "
                                 "cannot change")
@@ -972,6 +1262,63 @@ def _base_verb(word: str) -> str:
             if candidate in lx.PLAIN_VERBS:
                 return candidate
     return word
+
+
+def plugin_words() -> dict[str, str]:
+    """Word -> operator name, from the ``words`` attribute of registered operators (plugins extend
+    the offline lexicon this way: docs/plugins.md)."""
+    from parsel_core.plugins import edit_operators
+
+    out: dict[str, str] = {}
+    for name, cls in sorted(edit_operators().items()):
+        for word in getattr(cls, "words", ()) or ():
+            out[str(word).lower()] = name
+    return out
+
+
+def _coefficient(amount: str) -> float:
+    from parsel_core.language.amounts import amount_values
+
+    return amount_values(amount, "x", 0.0, 1.0, samples=2)[1]
+
+
+def _linear(value: float) -> str:
+    return "x" if value == 1 else "-x" if value == -1 else f"{value:.6g} * x"
+
+
+#: What degree words make of a default amount (docs/language.md, "Degree words").
+SMALL_GROW, SMALL_SHRINK, LARGE_GROW, LARGE_SHRINK = 0.25, -0.2, 2.0, -0.75
+SCALE_OPS = ("scale_1d", "scale_2d", "scale_3d", "change_delta")
+
+
+def with_degree(op: SeedOp, degree: tuple[str, float | None]) -> SeedOp:
+    """The op with its amount set by a degree word: sizes get a factor, moves and turns a multiple."""
+    kind, value = degree
+    coefficient = _coefficient(op.amount)
+    sign = 1.0 if coefficient >= 0 else -1.0
+    if op.op in SCALE_OPS:
+        if kind == "small":
+            new = SMALL_GROW if sign > 0 else SMALL_SHRINK
+        elif kind == "large":
+            new = LARGE_GROW if sign > 0 else LARGE_SHRINK
+        elif kind == "percent":
+            new = sign * min(value, 100.0 if sign > 0 else 95.0) / 100.0
+        elif kind == "factor":
+            new = value - 1.0
+        else:
+            return op
+    elif op.op in ("translate", "rotate"):
+        if kind == "degrees" and op.op == "rotate":
+            return replace(op, amount=f"{sign * value:g} * pi / 180 * x")
+        scale = {"small": 0.25 if op.op == "translate" else 1 / 3, "large": 2.0}.get(kind)
+        if kind == "percent" and op.op == "translate":
+            scale = value / 100.0 / 0.25  # a move's default is a quarter of the shape's extent
+        if scale is None:
+            return op
+        new = coefficient * scale
+    else:
+        return op
+    return replace(op, amount=_linear(round(new, 6)))
 
 
 def lx_spread(size: float) -> float:

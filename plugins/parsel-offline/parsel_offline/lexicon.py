@@ -65,6 +65,45 @@ _add("add", Intent("count", 1))
 _add("remove delete", Intent("count", -1))
 _add("keep fix fixed hold leave preserve maintain unchanged freeze frozen stay stays", Intent("keep"))
 
+#: Plain adjectives and the comparative they grade (``too long`` asks for ``shorter``,
+#: ``less wide`` for ``narrower``, ``twice as thick`` for ``thicker``).
+ADJECTIVES: dict[str, str] = {
+    "long": "longer", "short": "shorter", "wide": "wider", "broad": "wider", "narrow": "narrower",
+    "tall": "taller", "high": "higher", "low": "lower", "deep": "deeper", "shallow": "shallower",
+    "thick": "thicker", "thin": "thinner", "fat": "thicker", "chunky": "thicker", "skinny": "thinner",
+    "slim": "thinner", "slender": "thinner", "big": "bigger", "large": "bigger", "huge": "bigger",
+    "small": "smaller", "tiny": "smaller",
+}
+#: Comparatives the intents table does not hold, as the intent word they mean.
+EXTRA_COMPARATIVES = {"shallower": "shallower", "narrower": "narrower", "broader": "wider", "fatter": "thicker"}
+#: Degree words: how far the slider's range goes (docs/language.md, "Degree words").
+SMALL_DEGREE = frozenset({"slightly", "bit", "little", "tad", "touch", "somewhat", "marginally", "fraction",
+                          "smidge", "hair"})
+LARGE_DEGREE = frozenset({"lot", "much", "way", "far", "significantly", "considerably", "substantially",
+                          "dramatically", "greatly", "lots", "hugely", "massively", "heaps", "loads"})
+#: ``twice as long``: the factor a size becomes.
+FACTORS = {"twice": 2.0, "double": 2.0, "doubled": 2.0, "triple": 3.0, "thrice": 3.0, "half": 0.5, "halve": 0.5}
+#: Phrases read as another word before anything else: idioms and noun forms.
+IDIOMS: dict[tuple[str, ...], tuple[str, ...]] = {
+    ("get", "rid", "of"): ("remove",), ("do", "away", "with"): ("remove",), ("take", "away"): ("remove",),
+    ("take", "out"): ("remove",), ("squeeze", "in"): ("add",), ("fit", "in"): ("add",), ("put", "in"): ("add",),
+    ("throw", "in"): ("add",), ("swing", "open"): ("open",), ("swing", "out"): ("open",), ("swing",): ("open",),
+    ("further", "apart"): ("apart",), ("farther", "apart"): ("apart",), ("more", "spread", "out"): ("apart",),
+    ("as", "they", "are"): (), ("as", "it", "is"): (), ("as", "is"): (), ("the", "way", "they", "are"): (),
+    ("the", "way", "it", "is"): (), ("alone",): (), ("in", "place"): (), ("if", "possible"): (),
+    ("thank", "you"): (), ("i", "think"): (), ("i", "guess"): (), ("i", "feel"): (), ("in", "my", "opinion"): (),
+    ("kind", "of"): (), ("sort", "of"): (), ("a", "bit"): ("bit",), ("a", "little", "bit"): ("bit",),
+    ("a", "little"): ("bit",), ("a", "tad"): ("bit",), ("a", "touch"): ("bit",), ("a", "lot"): ("lot",),
+    ("a", "great", "deal"): ("lot",), ("a", "tiny", "bit"): ("bit",), ("just", "a", "bit"): ("bit",),
+    ("not", "enough"): (), ("side", "to", "side"): ("left", "to", "right"),
+}
+#: Words spelled the way people type in chat, as the word they stand for.
+SPELLINGS = {"plz": "please", "pls": "please", "u": "you", "ur": "your", "r": "are", "thx": "thanks",
+             "abit": "bit", "alot": "lot", "kinda": "somewhat", "sorta": "somewhat", "lil": "little"}
+#: Possessives and determiners that may open a phrase of purpose (``for my kids``).
+DETERMINERS = frozenset({"a", "an", "the", "my", "our", "your", "his", "her", "their", "this", "that", "these",
+                         "those", "some", "two", "three", "four", "five", "small", "little", "young", "new", "big"})
+
 #: Comparatives whose meaning depends on the target: ``make the table lower`` (height)
 #: versus ``make the seat lower`` (its position).
 POSITIONAL_COMPARATIVES = {"higher": 1, "lower": -1}
@@ -134,11 +173,14 @@ CATEGORIES: dict[str, tuple[str, ...]] = {
     "chair": ("chair", "stool", "armchair"),
     "table": ("table", "desk"),
     "cabinet": ("cabinet", "cupboard", "sideboard", "dresser", "wardrobe", "closet"),
+    "storage": ("storage", "cabinet", "cupboard", "bookcase", "bookshelf", "shelving", "dresser", "wardrobe"),
     "shelf": ("shelf", "bookcase", "bookshelf", "shelving", "rack"),
     "bed": ("bed",), "lamp": ("lamp",), "sofa": ("sofa", "couch"),
 }
 WHOLE_WORDS = ("it", "everything", "whole", "entire", "overall", "object", "furniture", "model", "shape",
-               "piece", "thing")
+               "piece", "thing", "unit")
+#: Pronouns that point back at the parts a previous clause named (``the seat, make it deeper``).
+PRONOUNS = frozenset({"it", "them", "they", "its", "their", "these", "those", "this", "that", "one", "ones"})
 OTHERS_WORDS = ("else", "rest", "remaining", "other", "others")
 #: Labels of parts that hold an object up: "taller" lengthens them.
 SUPPORT_LABELS = ("leg", "foot", "stand", "pedestal")
@@ -153,6 +195,9 @@ percent cm mm m inch inches times twice degree degrees by than then same way pla
 with on at from for into onto over about around toward towards each both every some one two three few
 little far amount possible enough while whilst but and or do does not don dont doesn t no its yet still
 now current currently original originally stays size sized own sure evenly even between among
+please thanks thank you your honestly hey hi hello ok okay think guess feel feels felt seem seems seemed look looks
+looking appear appears want wanted wants would like love prefer ought maybe perhaps probably rather quite actually
+basically definitely imo tbh idk lol hmm um uh also now again say says said told
 """.split())
 #: Negations that turn the verb after them into "keep": ``without moving the legs``, ``don't touch the top``.
 NEGATIONS = frozenset({"not", "never", "without", "no"})
@@ -206,8 +251,11 @@ def lemma(word: str) -> str:
 def tokens(request: str) -> list[str]:
     """Lower-case words; punctuation that separates clauses becomes a ``,`` token."""
     text = request.lower().replace("\u2019", "'")
+    text = re.sub(r"\bcan't\b", "can not", text)
+    text = re.sub(r"\bwon't\b", "will not", text)
     text = re.sub(r"n't\b", " not", text)
-    text = re.sub(r"'s\b", "", text)
+    text = re.sub(r"'(s|d|ll|m|re|ve)\b", "", text)
+    text = re.sub(r"\s[-\u2013\u2014]+\s|\.\.+|\u2026", " , ", text)
     text = re.sub(r"[;:!?]", " , ", text)
     text = re.sub(r",", " , ", text)
     text = re.sub(r"(?<!\d)\.|\.(?!\d)", " , ", text)
@@ -217,3 +265,22 @@ def tokens(request: str) -> list[str]:
 
 def is_number(word: str) -> bool:
     return bool(re.fullmatch(r"\d+(\.\d+)?%?|\d*\.\d+%?|%", word))
+
+
+def rewrite(words: list[str]) -> list[str]:
+    """Chat spellings and idioms replaced by the words they mean (longest phrase first)."""
+    words = [SPELLINGS.get(w, w) for w in words]
+    longest = max(len(k) for k in IDIOMS)
+    out: list[str] = []
+    i = 0
+    while i < len(words):
+        for n in range(min(longest, len(words) - i), 0, -1):
+            key = tuple(words[i:i + n])
+            if key in IDIOMS:
+                out.extend(IDIOMS[key])
+                i += n
+                break
+        else:
+            out.append(words[i])
+            i += 1
+    return out

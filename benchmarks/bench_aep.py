@@ -14,6 +14,7 @@ Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shap
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import time
@@ -187,8 +188,14 @@ def main() -> None:
     parser.add_argument("--slider-requests", type=int, default=10)
     parser.add_argument("--skip", default="", help="comma-separated parts to skip: random,designer,ablation,slider")
     parser.add_argument("--verbose", action="store_true", help="print every case that loses a relation")
+    parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                        help="an AEP option for every run (e.g. repair=0), repeatable")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
+    extra = {}
+    for item in args.option:
+        name, _, value = item.partition("=")
+        extra[name] = json.loads(value)
     backends = args.backends.split(",")
     programs: dict[int, Program] = {}
     requests: list[tuple[object, str]] = []
@@ -204,7 +211,7 @@ def main() -> None:
             variants += [("--no-nhbd", {"nhbd": False}), ("--no-breaking", {"breaking": False})]
         ablation = []
         for name, options in variants:
-            outcomes = [run_case(c, {**options, "backend": backends[0]}) for c in cases]
+            outcomes = [run_case(c, {**extra, **options, "backend": backends[0]}) for c in cases]
             ablation.append((name, *summarise(outcomes)))
             if name != "full":
                 continue
@@ -234,7 +241,8 @@ def main() -> None:
         rows = []
         for backend in backends:
             get_cas_backend(backend)
-            outcomes = [run_case(Case(shape, "random", seed), {"backend": backend}) for shape, seed in requests]
+            outcomes = [run_case(Case(shape, "random", seed), {**extra, "backend": backend})
+                        for shape, seed in requests]
             for i, o in enumerate(outcomes):
                 if o.program is not None:
                     programs.setdefault(i, o.program)

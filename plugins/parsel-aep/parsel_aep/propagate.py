@@ -73,6 +73,8 @@ class AEPOptions:
     backend: str | None = None
     #: Passes of the second look at parts decided too early (0 turns it off).
     repair: int = 2
+    #: Whether that second look may also take breaking-edits that lower the total error.
+    repair_breaking: bool = True
 
     @classmethod
     def from_mapping(cls, options: Mapping[str, Any]) -> AEPOptions:
@@ -165,6 +167,7 @@ class Propagation:
         self.tolerance = tolerance_for(self.shape, self.options.relative_tolerance)
         self.rest = self.shape.rest_corners()
         self.hints = dict(request.hints)
+        self.copy_sources: dict[int, str] = {}
 
     # -- program bookkeeping -------------------------------------------------------
 
@@ -282,7 +285,8 @@ class Propagation:
                 others_ops = [op for op in state.ops if op.operand != part]
                 constraints = [r for r in self.relations if part in r.members]
                 trial_state = dataclasses.replace(state, ops=others_ops, stats=state.stats)
-                choice = self.search(trial_state, part, (part,), constraints, self.corners(others_ops))
+                choice = self.search(trial_state, part, (part,), constraints, self.corners(others_ops),
+                                     breaking=self.options.repair_breaking)
                 if choice is None:
                     continue
                 op = choice[0]
@@ -391,7 +395,8 @@ class Propagation:
         state.decided.add(operand)
 
     def search(self, state: _State, operand: str, moving: tuple[str, ...], constraints: list[Relation],
-               corners: Mapping[str, np.ndarray]) -> tuple[EditOp | list[EditOp] | None, tuple[str, ...]] | None:
+               corners: Mapping[str, np.ndarray], breaking: bool = True
+               ) -> tuple[EditOp | list[EditOp] | None, tuple[str, ...]] | None:
         """The chosen edit and the constraints it leaves broken; ``None`` when nothing helps."""
         hint = self.hints.get(operand) or self.hints.get(moving[0])
         hexahedron = self.shape.part(operand).hexahedron
@@ -407,8 +412,11 @@ class Propagation:
         if operand in self.shape.virtual_parents:  # a group is edited as a whole, never by a feature
             own = [op for op in own if op.feature is None]
         copies = self.copied_edits(state, operand, moving, hint) if self.options.nhbd else []
+        spanning = {id(op) for op in copies if self.spans(op, self.copy_sources[id(op)])}
         found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check,
-                                     preferred={id(op) for op in copies})
+                                     preferred={id(op) for op in copies}, spanning=spanning)
+        if found is not None and any(found[0].op is op for op in copies):
+            state.stats["nhbd_edits"] += 1
         extra: list = []
         if found is None and self.options.nhbd:
             extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
@@ -432,7 +440,7 @@ class Propagation:
                                          preferred={id(op) for op in copies})
             if found is not None:
                 exact, others = firm, firm_others
-        if found is None and self.options.breaking:
+        if found is None and self.options.breaking and breaking:
             found = self.screen_and_pick(state, own + extra, rest, others, exact, breaking=True)
             if found is not None:
                 state.stats["breaking_edits"] += 1
@@ -541,8 +549,23 @@ class Propagation:
                 continue
             if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
                 continue
-            out.setdefault((copy.name, tuple(sorted(copy.params().items()))), copy)
+            key = (copy.name, tuple(sorted(copy.params().items())))
+            if key not in out:
+                out[key] = copy
+                self.copy_sources[id(copy)] = op.operand
         return list(out.values())
+
+    def spans(self, copy: EditOp, source: str) -> bool:
+        """Whether the part spans its neighbour along the directions a copied scaling stretches
+        (at least half its extent): a side panel deepened with the top, not a leg."""
+        directions = [np.asarray(copy.dir)] if hasattr(copy, "dir") and copy.name == "scale_1d" else (
+            [v for v in np.eye(3) if abs(float(v @ np.asarray(copy.normal))) < 0.9]
+            if copy.name == "scale_2d" else list(np.eye(3)) if copy.name == "scale_3d" else [])
+        if not directions:
+            return False
+        mine = self.shape.part(copy.operand).hexahedron.corners
+        theirs = self.shape.part(source).hexahedron.corners
+        return all(np.ptp(mine @ d) >= 0.5 * np.ptp(theirs @ d) for d in directions)
 
     def sliding_check(self, corners, rest, soft: list[Relation], sliding: set[str]):
         """A test that a screened candidate also keeps the sliding contacts ``soft``."""
@@ -559,8 +582,8 @@ class Propagation:
         return keeps
 
     def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
-                        breaking: bool = False, check=None, preferred: set[int] = frozenset()
-                        ) -> tuple[Screened, tuple[str, ...]] | None:
+                        breaking: bool = False, check=None, preferred: set[int] = frozenset(),
+                        spanning: set[int] = frozenset()) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
         results = screen(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
@@ -582,16 +605,17 @@ class Propagation:
             state.stats["candidates_valid"] += len(pool)
         if not pool:
             return None
-        for best in self.rank(pool, rest, preferred):
+        for best in self.rank(pool, rest, preferred, spanning):
             if check is None or breaking or check(best):
                 return best, best.broken
         return None
 
-    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray], preferred: set[int] = frozenset()
-             ) -> list[Screened]:
-        """Best first: high-distortion edits dropped, then rigid edits, then copies of an edited
-        neighbour's edit (``preferred``), then most symmetry planes, least ARAP energy,
-        simplest op, candidate order."""
+    def rank(self, pool: list[Screened], rest: Mapping[str, np.ndarray], preferred: set[int] = frozenset(),
+             spanning: set[int] = frozenset()) -> list[Screened]:
+        """Best first: high-distortion edits dropped, then copies of a neighbour's scaling that
+        the part spans (``spanning``), rigid edits, other copies of an edited neighbour's edit
+        (``preferred``), then most symmetry planes, least ARAP energy, simplest op, candidate
+        order."""
         pool = [s for s in pool if np.all(np.isfinite(s.f))]
         if not pool:
             return []
@@ -610,9 +634,9 @@ class Propagation:
             family = candidate_family(s.op)
             simplicity = SIMPLICITY.index(family) if family in SIMPLICITY else len(SIMPLICITY)
             rigid = e < 1e-9
-            scored.append((not rigid, not (rigid or id(s.op) in preferred), -p, round(float(e), 9), simplicity,
-                           s.index, s))
-        scored.sort(key=lambda t: t[:6])
+            tier = 0 if id(s.op) in spanning else 1 if rigid else 2 if id(s.op) in preferred else 3
+            scored.append((tier, -p, round(float(e), 9), simplicity, s.index, s))
+        scored.sort(key=lambda t: t[:5])
         return [t[-1] for t in scored]
 
     def _kept_residual(self, state: _State, rest, constraints, broken):
@@ -646,7 +670,13 @@ class Propagation:
                 expr = self.backend.expand(-expr)
         else:
             expr = rotation_amount(self.backend, screened.a[columns], self._offset(screened, columns), residual)
-        text = amount_text(self.backend, expr)
+        try:
+            text = amount_text(self.backend, expr)
+            finite = np.all(np.isfinite(evaluate_amount(text, self.parameter.name, self.xs)))
+        except (ParselError, ValueError):  # a residual term that is not finite
+            return None
+        if not finite:
+            return None
         if screened.kind == "rotation":
             known = sorted({op.amount for op in state.ops if op.amount not in ("0", "f")})
             text = simpler_equivalent(text, known, self.parameter.name, self.xs)
@@ -672,8 +702,15 @@ class Propagation:
         ops = []
         for term in simplify(compound, screened.f, self.shape.size):
             weights = -(np.asarray(term.weights) @ solver)
+            if not np.all(np.isfinite(weights)):
+                return None
             expr = self.backend.expand(linear_combination(self.backend, weights, residual))
-            text = amount_text(self.backend, expr)
+            try:
+                text = amount_text(self.backend, expr)
+                if not np.all(np.isfinite(evaluate_amount(text, self.parameter.name, self.xs))):
+                    return None
+            except (ParselError, ValueError):  # a residual term that is not finite
+                return None
             values = evaluate_amount(text, self.parameter.name, self.xs)
             expected = screened.f @ np.asarray(term.weights)
             if not broken and not np.allclose(values, expected, atol=1e-6 * max(1.0, float(np.abs(expected).max()))):

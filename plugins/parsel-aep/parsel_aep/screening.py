@@ -45,7 +45,8 @@ class Screened:
         """Total error of the constraints left broken (breaking-edits compare it)."""
         if self.errors is None or not self.broken:
             return 0.0
-        return float(sum(e for e in self.errors if e > 0 and np.isfinite(e)))
+        errors = self.errors[np.isfinite(self.errors)]
+        return float(errors.sum()) if len(errors) == len(self.errors) else float("inf")
 
 
 def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -155,7 +156,7 @@ def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.nd
 def _broken_ids(system: _System, errors: np.ndarray, tolerance: float) -> tuple[str, ...]:
     """Constraints whose largest error reaches their allowance (relations.Relation.allowance)."""
     allowed = np.maximum(tolerance, system.rest_errors)
-    return tuple(rid for rid, e, t in zip(system.ids, errors, allowed) if not e < t)
+    return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
 
 
 def _rotation_residual(system: _System, n: int, f: np.ndarray) -> np.ndarray:

@@ -279,7 +279,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from parsel_core.interfaces import SolveRequest
     from parsel_core.loading import load_shape
     from parsel_core.plugins import get_cas_backend, get_named, solvers
-    from parsel_core.report import check_program
+    from parsel_core.report import check_program, report_from_errors
     from parsel_core.textform import seed_from_text
 
     if args.seed is None and not args.request:
@@ -320,7 +320,11 @@ def cmd_edit(args: argparse.Namespace) -> int:
         result = solver.run(request)
         program, rejected, stats = result.program, result.rejected, result.stats
     program = type(program)(program.ops, program.parameters, metadata)
-    report = check_program(shape, program, request.breaks)
+    online = stats.get("online") if isinstance(stats.get("online"), dict) else None
+    if online is not None and "errors" in online:  # a solver that re-solves per value checked itself
+        report = report_from_errors(shape, online["errors"], request.breaks, online["samples"])
+    else:
+        report = check_program(shape, program, request.breaks)
     report.extra.update({"shape": shape.name, "solver": metadata["solver"], "rejected": rejected,
                          "stats": {**stats, "load_s": load_s}})
     if inference is not None:

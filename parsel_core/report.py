@@ -152,6 +152,20 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
     return RelationReport(states, tolerance, samples)
 
 
+def report_from_errors(shape: ShapeGraph, errors: Mapping[str, float], breaks: Iterable[str] = (),
+                       samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> RelationReport:
+    """The report of a solver that checked its own edits (the online baseline re-solves at
+    each value, so its program alone, the seed, says nothing about the other parts)."""
+    breaks = set(breaks)
+    tolerance = tolerance_for(shape) if tolerance is None else tolerance
+    states = []
+    for rid, relation in shape.relations.items():
+        error = float(errors.get(rid, 0.0))
+        state = "kept" if error < relation.allowance(tolerance) else "broken_on_purpose" if rid in breaks else "broken"
+        states.append(RelationState(rid, relation.kind, relation.members, state, error))
+    return RelationReport(states, tolerance, samples)
+
+
 def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
                          samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> dict[str, dict[str, int]]:
     """State counts with one slider moving at a time, the others at their lower end.

@@ -253,3 +253,20 @@ def test_a_failed_outdir_swap_keeps_the_previous_outdir(tmp_path, monkeypatch):
         write_outdir(str(target), {"a.txt": "new"})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert (target / "a.txt").read_text() == "old"
+
+
+def test_online_solver_reports_the_relations_of_its_own_solve(tmp_path):
+    """The online baseline's program is only the seed; its report must count what its
+    per-value solves keep, not what the seed alone keeps."""
+    out = tmp_path / "online"
+    seed = "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=0.5*x)"
+    assert main(["edit", "tiny_table", "--seed", seed, "--solver", "online", "-o", str(out)]) == 0
+    report = json.loads((out / "report.json").read_text())
+    from parsel_core import Program
+    from parsel_core.loading import load_shape
+    from parsel_core.report import check_program
+
+    seed_only = check_program(load_shape("tiny_table"), Program.from_text(seed)).counts()
+    assert report["counts"]["kept"] > seed_only["kept"]
+    broken = {r["id"] for r in report["relations"] if r["state"] == "broken"}
+    assert broken == set(report["rejected"])

@@ -62,8 +62,10 @@ class OnlineEditor:
     def sweep(self, samples: int = 11) -> dict:
         """Solve across the first parameter's range; report which relations failed where."""
         parameter = self.request.seed.parameters[0]
-        broken: set[str] = set()
+        errors = {r.id: 0.0 for r in self.relations}
         for value in np.linspace(parameter.lo, parameter.hi, samples):
             corners = self.corners({parameter.name: float(value)})
-            broken.update(r.id for r in self.relations if float(np.max(r.error(corners))) >= self.tolerance)
-        return {"samples": samples, "broken": sorted(broken), "free_parts": len(self.free)}
+            for r in self.relations:
+                errors[r.id] = max(errors[r.id], float(np.max(r.error(corners))))
+        broken = [r.id for r in self.relations if not errors[r.id] < r.allowance(self.tolerance)]
+        return {"samples": samples, "broken": sorted(broken), "free_parts": len(self.free), "errors": errors}

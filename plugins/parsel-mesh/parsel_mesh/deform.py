@@ -51,9 +51,10 @@ def _blas_controller():
 def one_blas_thread():
     """A context in which BLAS (numpy's OpenBLAS) runs on one thread.
 
-    Measured with ``benchmarks/bench_deform.py``: a 437k-vertex step took 20-30 ms on one
-    thread against 300-500 ms on OpenBLAS's default threads while other processes kept
-    the two cores busy; entering the context costs about 10 microseconds.
+    Measured with ``benchmarks/bench_deform.py --vertices 437000`` on a shared 2-core
+    machine: deforming took 37-42 ms on one thread against 600-650 ms on OpenBLAS's
+    default threads next to two busy processes, 12-13 ms against 24-92 ms without them;
+    entering the context costs about 10 microseconds.
     """
     return _blas_controller().limit(limits=1, user_api="blas")
 

@@ -93,8 +93,10 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=7, help="timed runs per command and side (default 7)")
     args = parser.parse_args()
     head = git("rev-parse", "--short", "HEAD")
-    base = args.base or git("merge-base", "HEAD", "main")
-    base = git("rev-parse", "--short", base)
+    try:
+        base = git("rev-parse", "--short", args.base or git("merge-base", "HEAD", "main"))
+    except subprocess.CalledProcessError as exc:
+        raise SystemExit(f"bench_cli: no base commit ({exc.stderr.strip() or 'git failed'}); pass --base REV") from None
     if base == head and not args.base:
         raise SystemExit("bench_cli: HEAD is on main; name the commit to compare with: --base REV")
     with tempfile.TemporaryDirectory(prefix="bench-cli-") as tmp:

@@ -3,9 +3,15 @@
 The core defines the data model (hexahedra, parts, relations, shape graphs), the
 editing DSL, programs and the plugin hooks; CAS backends, loaders, detectors, LLM
 providers and deformers come from plugins.
+
+Importing the package costs only pluggy: the public names below load their modules
+(and numpy) on first use, so ``parsel --help`` and plugin registration stay cheap.
 """
 
 from __future__ import annotations
+
+import importlib
+from typing import Any
 
 import pluggy
 
@@ -13,31 +19,20 @@ __version__ = "0.1.0"
 
 hookimpl = pluggy.HookimplMarker("parsel")
 
-from parsel_core.errors import ParselError  # noqa: E402
-from parsel_core.graph import ShapeGraph  # noqa: E402
-from parsel_core.hexahedron import Hexahedron  # noqa: E402
-from parsel_core.ops import (  # noqa: E402
-    ChangeCount,
-    ChangeDelta,
-    EditOp,
-    KeepFixed,
-    Rotate,
-    Scale1D,
-    Scale2D,
-    Scale3D,
-    Shear,
-    Translate,
-)
-from parsel_core.part import Part  # noqa: E402
-from parsel_core.program import CompiledProgram, Evaluation, Parameter, Program, compile_program, evaluate  # noqa: E402
-from parsel_core.relations import (  # noqa: E402
-    Attachment,
-    GroundContact,
-    ReflectionSymmetry,
-    Relation,
-    RotationSymmetry,
-    TranslationSymmetry,
-)
+#: Public name -> the module that defines it (imported on first access).
+_LAZY = {
+    "ParselError": "parsel_core.errors",
+    "ShapeGraph": "parsel_core.graph",
+    "Hexahedron": "parsel_core.hexahedron",
+    **{name: "parsel_core.ops" for name in (
+        "ChangeCount", "ChangeDelta", "EditOp", "KeepFixed", "Rotate", "Scale1D", "Scale2D", "Scale3D", "Shear",
+        "Translate")},
+    "Part": "parsel_core.part",
+    **{name: "parsel_core.program" for name in (
+        "CompiledProgram", "Evaluation", "Parameter", "Program", "compile_program", "evaluate")},
+    **{name: "parsel_core.relations" for name in (
+        "Attachment", "GroundContact", "ReflectionSymmetry", "Relation", "RotationSymmetry", "TranslationSymmetry")},
+}
 
 __all__ = [
     "Attachment", "ChangeCount", "ChangeDelta", "CompiledProgram", "EditOp", "Evaluation", "GroundContact",
@@ -45,3 +40,17 @@ __all__ = [
     "Rotate", "RotationSymmetry", "Scale1D", "Scale2D", "Scale3D", "ShapeGraph", "Shear", "Translate",
     "TranslationSymmetry", "compile_program", "evaluate", "hookimpl",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'parsel_core' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_LAZY})
+

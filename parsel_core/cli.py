@@ -8,8 +8,6 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
-
 from parsel_core import __version__
 from parsel_core.errors import ParselError
 
@@ -71,6 +69,8 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
 
 def _print_corners(evaluation, part_ids) -> None:
+    import numpy as np
+
     for pid in part_ids:
         corners = np.asarray(evaluation.parts[pid])
         print(f"    {pid}:")
@@ -86,6 +86,8 @@ DEMO_SEEDS = {"tiny_table": "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The whole job on a bundled asset: request -> seed -> program -> report -> outputs."""
     from pathlib import Path
+
+    import numpy as np
 
     from parsel_core.loading import load_program, load_shape
     from parsel_core.plugins import example_shapes, get_plugin_manager, llm_providers
@@ -153,6 +155,8 @@ class _Recorder:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Evaluate a program on a shape at parameter values and print (or dump) the corners."""
+    import numpy as np
+
     from parsel_core.loading import load_program, load_shape, parse_assignments
     from parsel_core.plugins import get_cas_backend
     from parsel_core.program import compile_program
@@ -538,6 +542,8 @@ def cmd_apply(args: argparse.Namespace) -> int:
     """Evaluate a program at parameter values and export the edited shape."""
     from pathlib import Path
 
+    import numpy as np
+
     from parsel_core.loading import load_program, load_shape, parse_assignments
     from parsel_core.plugins import exporter_for
     from parsel_core.program import evaluate
@@ -585,7 +591,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The command line; ``argv`` (when given) lets it skip plugins the command does not need."""
     parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.")
     parser.add_argument("--version", action="version", version=f"parsel {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -687,15 +694,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("output", help="output path; .json for JSON, anything else for text, - for stdout")
     p.set_defaults(func=cmd_convert)
 
-    from parsel_core.plugins import get_plugin_manager
-
-    get_plugin_manager().hook.parsel_register_commands(subparsers=sub)
+    _add_plugin_commands(sub, argv)
     return parser
 
 
+def _add_plugin_commands(sub, argv: Sequence[str] | None) -> None:
+    """Plugins' sub-commands, loading plugins only when the command line may name one.
+
+    A built-in command needs none; with no command (``parsel --help``) the listing comes
+    from the plugins' metadata (:func:`parsel_core.plugins.declared_commands`), so no
+    plugin is imported; ``argv=None`` means every command (the whole parser).
+    """
+    from parsel_core import plugins
+
+    command = next((word for word in argv if not word.startswith("-")), None) if argv is not None else ""
+    if command is None:
+        for name, text in plugins.declared_commands().items():
+            if name not in sub.choices:
+                sub.add_parser(name, help=text, add_help=False)
+    elif command not in sub.choices:
+        plugins.get_plugin_manager().hook.parsel_register_commands(subparsers=sub)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        parser = build_parser()
+        parser = build_parser(argv)
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):
             parser.print_help()

@@ -8,9 +8,9 @@ group can be edited as a whole and its count or spacing changed.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from functools import cached_property
 from typing import Any
 
-import networkx as nx
 import numpy as np
 
 from parsel_core.errors import ParselError, UnknownPartError
@@ -54,7 +54,8 @@ class ShapeGraph:
 
     Built once from its parts and relations (validated), then read. Group relations
     (translation, rotation) get a virtual parent part with the relation's id, joined to
-    each member by a ``contains`` edge.
+    each member by a ``contains`` edge. The edges are kept as plain lists; the networkx
+    view (:attr:`graph`) is built on first use, so loading a shape does not import networkx.
     """
 
     def __init__(self, parts: Iterable[Part], relations: Iterable[Relation] = (), name: str = "shape",
@@ -71,8 +72,9 @@ class ShapeGraph:
             self.parts[part.id] = part
         self.relations: dict[str, Relation] = {}
         self.virtual_parents: dict[str, Part] = {}
-        self.graph = nx.MultiGraph()
-        self.graph.add_nodes_from(self.parts)
+        self._nodes: list[tuple[str, dict[str, Any]]] = [(pid, {}) for pid in self.parts]
+        self._edges: list[tuple[str, str, str, dict[str, Any]]] = []  # (a, b, key, attributes)
+        self._adjacent: dict[str, set[str]] = {pid: set() for pid in self.parts}
         for relation in relations:
             self._add_relation(relation)
 
@@ -91,16 +93,33 @@ class ShapeGraph:
             parent = Part(relation.id, label=f"{self.parts[relation.members[0]].label}_group",
                           hexahedron=group_parent_hexahedron(relation, self.parts), virtual=True)
             self.virtual_parents[relation.id] = parent
-            self.graph.add_node(relation.id, virtual=True)
+            self._nodes.append((relation.id, {"virtual": True}))
+            self._adjacent[relation.id] = set()
             for member in relation.members:
-                self.graph.add_edge(relation.id, member, key=relation.id, kind="contains")
+                self._add_edge(relation.id, member, relation.id, "contains")
         else:
             members = relation.members
             if len(members) == 1:
-                self.graph.add_edge(members[0], members[0], key=relation.id, kind=relation.kind)
+                self._add_edge(members[0], members[0], relation.id, relation.kind)
             for i, a in enumerate(members):
                 for b in members[i + 1:]:
-                    self.graph.add_edge(a, b, key=relation.id, kind=relation.kind)
+                    self._add_edge(a, b, relation.id, relation.kind)
+
+    def _add_edge(self, a: str, b: str, key: str, kind: str) -> None:
+        self._edges.append((a, b, key, {"kind": kind}))
+        self._adjacent[a].add(b)
+        self._adjacent[b].add(a)
+
+    @cached_property
+    def graph(self):
+        """The shape graph as a ``networkx.MultiGraph`` (nodes: parts and virtual parents;
+        edges keyed by relation id, with the relation's ``kind``)."""
+        import networkx as nx
+
+        graph = nx.MultiGraph()
+        graph.add_nodes_from(self._nodes)
+        graph.add_edges_from(self._edges)
+        return graph
 
     # -- reading -----------------------------------------------------------------------
 
@@ -134,7 +153,8 @@ class ShapeGraph:
 
     def neighbours(self, part_id: str) -> list[str]:
         """Parts sharing a relation with this one (virtual parents included)."""
-        return sorted(n for n in self.graph.neighbors(part_id) if n != part_id)
+        self.part(part_id)
+        return sorted(n for n in self._adjacent[part_id] if n != part_id)
 
     def groups_of(self, part_id: str) -> list[str]:
         """Ids of the translation / rotation groups a part belongs to."""

@@ -25,6 +25,9 @@ from parsel_core import hookspecs
 from parsel_core.errors import UnknownPluginError
 
 ENTRY_POINT_GROUP = "parsel"
+#: Sub-commands a plugin adds, declared in its metadata (``view = "parsel_view"``) so that
+#: ``parsel --help`` can list them without importing the plugin.
+COMMANDS_GROUP = "parsel.commands"
 BUILTIN_PLUGINS = (
     "parsel_core.builtin.operators",
     "parsel_core.builtin.shapes",
@@ -65,8 +68,7 @@ class ParselPluginManager(pluggy.PluginManager):
 
     def load_entry_points(self) -> None:
         strict = os.environ.get("PARSEL_STRICT_PLUGINS", "") not in ("", "0")
-        allowed = os.environ.get("PARSEL_PLUGINS")
-        allow = None if allowed is None else {n.strip() for n in allowed.split(",") if n.strip()}
+        allow = _allowed_plugins()
         seen = set()
         for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
             if ep.name in seen or (allow is not None and ep.name not in allow):
@@ -96,6 +98,31 @@ class ParselPluginManager(pluggy.PluginManager):
                     caller.name for caller in self.get_hookcallers(plugin) or [])
             out.append(record)
         return out
+
+
+def _allowed_plugins() -> set[str] | None:
+    """Entry-point names ``PARSEL_PLUGINS`` allows; ``None``: all."""
+    allowed = os.environ.get("PARSEL_PLUGINS")
+    return None if allowed is None else {n.strip() for n in allowed.split(",") if n.strip()}
+
+
+def declared_commands() -> dict[str, str]:
+    """Sub-command name -> a help line naming its plugin, from metadata only (no import).
+
+    Plugins list the commands they add under the ``parsel.commands`` entry-point group;
+    plugins that ``PARSEL_PLUGINS`` leaves out are left out here too.
+    """
+    allow = _allowed_plugins()
+    out: dict[str, str] = {}
+    for ep in sorted(metadata.entry_points(group=COMMANDS_GROUP), key=lambda e: e.name):
+        dist = getattr(ep, "dist", None)
+        if allow is not None:
+            names = {e.name for e in dist.entry_points if e.group == ENTRY_POINT_GROUP} if dist else set()
+            if not names & allow:
+                continue
+        where = dist.name if dist is not None else ep.value
+        out.setdefault(ep.name, f"from {where} (parsel {ep.name} --help says more)")
+    return out
 
 
 def _core_version() -> str:

@@ -288,10 +288,13 @@ def broken_plugin_path(tmp_path):
     return {"PYTHONPATH": os.pathsep.join([str(target), os.environ.get("PYTHONPATH", "")])}
 
 
-def test_broken_plugin_does_not_stop_help(broken_plugin_path):
+def test_broken_plugin_does_not_stop_the_command_line(broken_plugin_path):
     result = run_parsel("--help", env=broken_plugin_path)
     assert result.returncode == 0
     assert "plugins" in result.stdout
+    assert result.stderr == ""  # --help imports no plugin, so a broken one cannot get in the way
+    result = run_parsel("plugins", env=broken_plugin_path)
+    assert result.returncode == 0
     assert "parsel plugin 'broken'" in result.stderr and "broken on purpose" in result.stderr
     listing = run_parsel("plugins", "--json", env=broken_plugin_path)
     broken = next(p for p in json.loads(listing.stdout)["plugins"] if p["name"] == "broken")

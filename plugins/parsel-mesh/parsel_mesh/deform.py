@@ -3,13 +3,16 @@
 Each vertex is held by its 8 trilinear weights in the part's rest hexahedron
 (``parsel_core.cage.point_weights``), computed once per shape and part, so a slider step
 is one ``(m, 8) @ (8, 3)`` product per part. Vertices outside the box (there are none for
-fitted boxes, but meshes may be edited) extrapolate the same map.
+fitted boxes, but meshes may be edited) extrapolate the same map. The products run on one
+BLAS thread (:func:`one_blas_thread`): they are bound by memory, and OpenBLAS's threads
+slow them down many times over as soon as other work shares the cores.
 """
 
 from __future__ import annotations
 
 import weakref
 from collections.abc import Mapping
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -36,6 +39,24 @@ def part_mesh(shape: ShapeGraph, part_id: str) -> Any:
         raise ParselError(f"shape {shape.name!r}: part {part_id!r} has no mesh to deform "
                           f"(shapes read from hexahedra export with .hex.json)")
     return mesh
+
+
+@cache
+def _blas_controller():
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()  # finds the loaded BLAS libraries once per process
+
+
+def one_blas_thread():
+    """A context in which BLAS (numpy's OpenBLAS) runs on one thread.
+
+    Measured with ``benchmarks/bench_deform.py --vertices 437000`` on a shared 2-core
+    machine: deforming took 37-42 ms on one thread against 600-650 ms on OpenBLAS's
+    default threads next to two busy processes, 12-13 ms against 24-92 ms without them;
+    entering the context costs about 10 microseconds.
+    """
+    return _blas_controller().limit(limits=1, user_api="blas")
 
 
 def cage_weights_of(shape: ShapeGraph, part_id: str) -> np.ndarray:
@@ -67,12 +88,15 @@ def deformed_vertices(shape: ShapeGraph, evaluation: Evaluation) -> dict[str, np
     instances, each a copy of the first member's mesh in that instance's corners.
     """
     replaced = {m for group in evaluation.instances for m in shape.relation(group).members}
-    out = {pid: cage_weights_of(shape, pid) @ _corners(evaluation, pid)
-           for pid in shape.parts if pid not in replaced}
-    for group, instances in evaluation.instances.items():
-        first = shape.relation(group).members[0]
-        stacked = cage_weights_of(shape, first) @ np.asarray(instances, dtype=float)  # (n, m, 3)
-        out.update({instance_name(first, i): vertices for i, vertices in enumerate(stacked)})
+    weights = {pid: cage_weights_of(shape, pid) for pid in shape.parts if pid not in replaced}
+    firsts = {group: shape.relation(group).members[0] for group in evaluation.instances}
+    weights.update({first: cage_weights_of(shape, first) for first in firsts.values()})
+    with one_blas_thread():
+        out = {pid: weights[pid] @ _corners(evaluation, pid) for pid in shape.parts if pid not in replaced}
+        for group, instances in evaluation.instances.items():
+            first = firsts[group]
+            stacked = weights[first] @ np.asarray(instances, dtype=float)  # (n, m, 3)
+            out.update({instance_name(first, i): vertices for i, vertices in enumerate(stacked)})
     return out
 
 

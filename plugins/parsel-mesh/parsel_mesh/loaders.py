@@ -384,6 +384,11 @@ def load_mesh_shape(path: Path | str) -> ShapeGraph:
     suffix = path.suffix.lower()
     if suffix not in READERS:
         raise ParselError(f"{path}: unknown mesh suffix {suffix!r} (reads {', '.join(sorted(READERS))})")
+    from parsel_mesh.prefit import read_prefit, shape_from_prefit
+
+    prefit = read_prefit(path)  # fitted boxes saved beside the file: no mesh read until one is used
+    if prefit is not None:
+        return shape_from_prefit(path, prefit, suffix.lstrip("."))
     meshes = READERS[suffix](path)
     return assemble(path, meshes, {}, suffix.lstrip("."))
 

@@ -165,3 +165,26 @@ def test_parts_without_meshes_are_named():
     shape = ShapeGraph([Part("top", "top", Hexahedron.from_bounds((0, 0, 0), (1, 1, 1)))], name="bare")
     with pytest.raises(ParselError, match="part 'top' has no mesh"):
         CageDeformer().deform(shape, evaluate(Program.from_text("translate(top, amount=x)"), shape))
+
+
+def test_cage_products_run_on_one_blas_thread_and_restore_the_pool(monkeypatch):
+    """Many BLAS threads make the memory-bound products slower on a busy machine
+    (benchmarks/bench_deform.py --load); the limit holds only for the call."""
+    from threadpoolctl import ThreadpoolController
+
+    controller = ThreadpoolController()
+    seen = []
+    real = deform._corners
+    monkeypatch.setattr(deform, "_corners", lambda evaluation, pid: seen.append(
+        [info["num_threads"] for info in controller.select(user_api="blas").info()]) or real(evaluation, pid))
+    shape = load_mesh_shape(example_path("chair"))
+    evaluation = evaluate(Program.from_text("scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)"),
+                          shape, {"x": 0.5})
+    with controller.limit(limits=2, user_api="blas"):
+        vertices = deformed_vertices(shape, evaluation)
+        after = [info["num_threads"] for info in controller.select(user_api="blas").info()]
+    assert seen and all(threads == [1] * len(threads) for threads in seen)
+    assert after == [2] * len(after)
+    seat = shape.parts["seat"]
+    np.testing.assert_allclose(vertices["seat"], cage_weights_of(shape, "seat") @ evaluation.parts["seat"])
+    assert len(vertices["seat"]) == len(seat.mesh.vertices)

@@ -9,6 +9,7 @@ parsing and voting path runs as for a hosted model. Requests it cannot read get 
 
 from __future__ import annotations
 
+import importlib
 import re
 from functools import lru_cache
 from typing import Any
@@ -16,30 +17,30 @@ from typing import Any
 from parsel_core import hookimpl
 from parsel_core.errors import ParselError
 from parsel_core.interfaces import Completion, LLMProvider
-from parsel_core.language.describe import ShapeSummary, read_description, read_relation_id, read_request
-from parsel_offline.interpreter import Interpretation, Interpreter, NotUnderstood, interpret
-from parsel_offline.writer import (
-    cannot_reply,
-    hints_reply,
-    one_shot_reply,
-    proxydural_requests,
-    requests_reply,
-    seed_reply,
-    validity_reply,
-    variation_requests,
-)
 
 __all__ = ["Interpretation", "Interpreter", "NotUnderstood", "OfflineProvider", "answer", "interpret"]
+
+
+def __getattr__(name: str) -> Any:
+    """The interpreter's names, imported on first use (registering the plugin stays cheap)."""
+    if name not in ("Interpretation", "Interpreter", "NotUnderstood", "interpret"):
+        raise AttributeError(f"module 'parsel_offline' has no attribute {name!r}")
+    return getattr(importlib.import_module("parsel_offline.interpreter"), name)
 TASKS = ("seed_edit", "type_hints", "reflection_validity", "group_validity", "one_shot", "proxydural", "variations")
 
 
 @lru_cache(maxsize=64)
-def _summary(block: str) -> ShapeSummary:
+def _summary(block: str):
+    from parsel_core.language.describe import read_description
+
     return read_description(block)
 
 
 @lru_cache(maxsize=256)
-def _reading(block: str, request: str) -> Interpretation | str:
+def _reading(block: str, request: str):
+    """The interpreter's reading of a request, or why it has none."""
+    from parsel_offline.interpreter import NotUnderstood, interpret
+
     try:
         return interpret(_summary(block), request)
     except NotUnderstood as exc:
@@ -56,6 +57,18 @@ def _shape_block(prompt: str) -> str:
 
 def answer(prompt: str, task: str) -> str:
     """The reply to one prompt of ``task``."""
+    from parsel_core.language.describe import read_relation_id, read_request
+    from parsel_offline.writer import (
+        cannot_reply,
+        hints_reply,
+        one_shot_reply,
+        proxydural_requests,
+        requests_reply,
+        seed_reply,
+        validity_reply,
+        variation_requests,
+    )
+
     if task not in TASKS:
         raise ParselError(f"the offline provider does not know task {task!r} (known: {', '.join(TASKS)})")
     block = _shape_block(prompt)

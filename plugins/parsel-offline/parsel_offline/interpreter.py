@@ -28,7 +28,6 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import networkx as nx
 import numpy as np
 
 from parsel_core.language.describe import PartSummary, ShapeSummary
@@ -234,6 +233,8 @@ class Interpreter:
 
     def components(self, parts: Sequence[str]) -> list[tuple[str, ...]]:
         """``parts`` split into sets joined by symmetry relations lying wholly inside ``parts``."""
+        import networkx as nx  # here, not at the top: importing it costs more than this whole request
+
         inside = set(parts)
         graph = nx.Graph()
         graph.add_nodes_from(parts)

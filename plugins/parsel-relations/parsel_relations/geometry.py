@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from parsel_core.hexahedron import CORNER_BITS
+from parsel_relations.assignment import linear_sum_assignment
 
 #: The 12 edges of a box as corner-index pairs (corners in the canonical bit order).
 BOX_EDGES = np.array([(a, b) for a in range(8) for b in range(8)

@@ -11,9 +11,8 @@ from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import Hexahedron
 from parsel_core.interfaces import ShapeLoader
 from parsel_core.io import read_json
+from parsel_core.mesh import box_mesh
 from parsel_core.part import Part
-from parsel_shapeassembly.interpreter import ShapeAssemblyError, execute
-from parsel_shapeassembly.labels import CATEGORIES, label_parts
 
 MAGIC = "Assembly Program_0"
 
@@ -44,13 +43,6 @@ def read_labels_sidecar(path: Path, names: set[str]) -> dict[str, str]:
     return data
 
 
-def box_mesh(hexahedron: Hexahedron):
-    """The cuboid as a closed triangle mesh (8 vertices, 12 outward triangles), for export and display."""
-    import trimesh
-
-    return trimesh.Trimesh(hexahedron.corners.copy(), hexahedron.triangles(), process=False)
-
-
 class ShapeAssemblyLoader(ShapeLoader):
     """Programs (``.sa``, or ``.txt`` starting with ``Assembly Program_0``) executed as in the paper."""
 
@@ -69,6 +61,10 @@ class ShapeAssemblyLoader(ShapeLoader):
             return False
 
     def load(self, path: Path) -> ShapeGraph:
+        # Here, not at the top: every command lists the loaders, few read a program.
+        from parsel_shapeassembly.interpreter import ShapeAssemblyError, execute
+        from parsel_shapeassembly.labels import CATEGORIES, label_parts
+
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:

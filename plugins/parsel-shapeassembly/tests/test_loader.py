@@ -2,6 +2,8 @@
 
 import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -72,9 +74,11 @@ def test_inspect_json_on_a_program(chair, capsys):
 
 
 def test_parts_carry_closed_box_meshes_on_their_corners(chair):
+    import trimesh
+
     shape = load_shape(str(chair), detect=False)
     for pid, part in shape.parts.items():
-        mesh = part.mesh
+        mesh = trimesh.Trimesh(part.mesh.vertices, part.mesh.faces, process=False)
         assert mesh.is_volume, pid  # watertight, outward
         np.testing.assert_allclose(mesh.vertices, part.hexahedron.corners)
         assert mesh.volume == pytest.approx(abs(part.hexahedron.volume), rel=1e-9)
@@ -89,3 +93,13 @@ def test_an_edited_program_exports_as_a_mesh(chair, tmp_path):
 
     scene = trimesh.load(out, force="scene")
     assert len(scene.geometry) == 11
+
+
+def test_loading_a_program_does_not_import_trimesh(chair):
+    """Box meshes are plain vertex and face arrays (trimesh takes half a second to import)."""
+    code = ("import sys; from parsel_core.loading import load_shape; "
+            f"shape = load_shape({str(chair)!r}); "
+            "assert all(p.mesh.faces.shape == (12, 3) for p in shape.parts.values()); "
+            "print(sorted(m for m in ('trimesh', 'scipy', 'sympy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

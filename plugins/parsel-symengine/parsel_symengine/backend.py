@@ -3,12 +3,25 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
-import symengine
-from symengine.lib.symengine_wrapper import solve as _solve
 
 from parsel_core.cas import CASBackend, normalise_printed
+
+#: symengine and its ``solve``, imported by the first ``SymengineBackend()``, so that the
+#: class can be listed (``parsel plugins``, picking another backend) without importing it.
+symengine: Any = None
+_solve: Any = None
+
+
+def _import_symengine() -> None:
+    global symengine, _solve
+    if symengine is None:
+        import symengine as module
+        from symengine.lib.symengine_wrapper import solve
+
+        symengine, _solve = module, solve
 
 
 class SymengineBackend(CASBackend):
@@ -18,6 +31,7 @@ class SymengineBackend(CASBackend):
     name = "symengine"
 
     def __init__(self) -> None:
+        _import_symengine()
         self._symbols: dict[str, symengine.Symbol] = {}
         self._functions = {
             "sin": symengine.sin, "cos": symengine.cos, "tan": symengine.tan, "asin": symengine.asin,

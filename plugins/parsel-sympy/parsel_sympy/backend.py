@@ -3,11 +3,23 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
-import sympy
 
 from parsel_core.cas import CASBackend, normalise_printed
+
+#: The sympy module, imported by the first ``SympyBackend()``: listing the installed
+#: backends imports this class, and sympy takes longer to import than a whole request.
+sympy: Any = None
+
+
+def _import_sympy() -> None:
+    global sympy
+    if sympy is None:
+        import sympy as module
+
+        sympy = module
 
 
 class SympyBackend(CASBackend):
@@ -16,6 +28,7 @@ class SympyBackend(CASBackend):
     name = "sympy"
 
     def __init__(self) -> None:
+        _import_sympy()
         self._symbols: dict[str, sympy.Symbol] = {}
         self._functions = {
             "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "asin": sympy.asin, "acos": sympy.acos,

@@ -24,6 +24,7 @@ Run as ``python -m parsel_mesh.examples.build`` (with the plugin directory on
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -413,24 +414,31 @@ def asset_bytes(name: str) -> bytes:
 def build(
     out_dir: Path = EXAMPLES_DIR, names: Sequence[str] = tuple(ASSETS)
 ) -> list[Path]:
-    """Write ``<name>.glb`` for each requested asset into ``out_dir``."""
+    """Write ``<name>.glb`` and its pre-fitted parts (``<name>.glb.parts.json``) for each
+    requested asset into ``out_dir``."""
+    from parsel_mesh.prefit import write_prefit
+
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
     for name in names:
         path = out_dir / f"{name}.glb"
         path.write_bytes(asset_bytes(name))
         paths.append(path)
+        write_prefit(path)
     return paths
 
 
 def stale(out_dir: Path = EXAMPLES_DIR) -> list[str]:
-    """Names of assets whose file in ``out_dir`` differs from a fresh build."""
-    return [
-        n
-        for n in ASSETS
-        if not (out_dir / f"{n}.glb").is_file()
-        or (out_dir / f"{n}.glb").read_bytes() != asset_bytes(n)
-    ]
+    """Names of assets whose file (or pre-fitted parts) in ``out_dir`` differs from a fresh build."""
+    from parsel_mesh.prefit import prefit_data, prefit_path
+
+    def fresh(n: str) -> bool:
+        path = out_dir / f"{n}.glb"
+        if not path.is_file() or path.read_bytes() != asset_bytes(n) or not prefit_path(path).is_file():
+            return False
+        return json.loads(prefit_path(path).read_text(encoding="utf-8")) == prefit_data(path)
+
+    return [n for n in ASSETS if not fresh(n)]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -446,7 +454,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.check:
         differing = stale(args.out)
         for name in differing:
-            print(f"stale: {name}.glb", file=sys.stderr)
+            print(f"stale: {name}.glb (or its .parts.json)", file=sys.stderr)
         return 1 if differing else 0
     for path in build(args.out):
         print(f"{path} {path.stat().st_size} bytes")

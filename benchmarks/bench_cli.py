@@ -1,0 +1,140 @@
+"""Whole-command cost: ``parsel --help``, ``inspect chair --json`` and ``edit chair "make the chair wider"``.
+
+Each command runs as a fresh process, as a user runs it, for this checkout and for a
+base commit, alternately in the same run (so machine load hits both alike). CPU time is
+the child's user + system time (``os.wait4``), wall time its elapsed time; the table
+prints medians and the ratios base / this checkout, then checks the goal: ``parsel edit
+chair ...`` at most 1 s of CPU. The base commit's sources are extracted with ``git
+archive`` into a temporary folder and put first on ``PYTHONPATH``, so both sides run in
+this checkout's virtual environment (same interpreter, numpy, trimesh ...); bytecode is
+cached in a temporary ``PYTHONPYCACHEPREFIX`` and each side runs every command once
+before timing, as an installed parsel would. ``edit`` programs of both sides are
+compared byte for byte.
+
+    python benchmarks/bench_cli.py [--base REV] [--runs 7]
+
+``--base`` defaults to the commit where this branch left ``main``; once merged, name the
+commit to compare with (82a1e13 is the last one before lazy start-up).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+GOAL_EDIT_CPU_S = 1.0
+COMMANDS = {
+    "parsel --help": ["--help"],
+    "parsel inspect chair --json": ["inspect", "chair", "--json"],
+    'parsel edit chair "make the chair wider"': ["edit", "chair", "make the chair wider", "-o", "{out}"],
+}
+
+
+def git(*args: str) -> str:
+    return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
+
+
+def extract(rev: str, target: Path) -> None:
+    """The tree of ``rev`` under ``target`` (no checkout, no worktree metadata)."""
+    archive = subprocess.run(["git", "archive", rev], cwd=ROOT, capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(target)], input=archive, check=True)
+
+
+def source_path(tree: Path) -> str:
+    """``PYTHONPATH`` that makes ``tree``'s core and plugins shadow the installed ones."""
+    return os.pathsep.join([str(tree), *(str(p.parent) for p in sorted(tree.glob("plugins/*/pyproject.toml")))])
+
+
+def side_env(tree: Path, pycache: Path) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith("PARSEL_") and k not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPATH")}
+    env.update({"PYTHONPATH": source_path(tree), "PYTHONPYCACHEPREFIX": str(pycache)})
+    return env
+
+
+def check_sources(env: dict[str, str], tree: Path, cwd: Path) -> None:
+    """Fail loudly unless the side imports its own core and plugin code (run outside any
+    checkout: ``python -c`` puts the working directory first on ``sys.path``)."""
+    code = "import parsel_core, parsel_aep, parsel_mesh; print(parsel_core.__file__, parsel_aep.__file__, " \
+           "parsel_mesh.__file__)"
+    files = subprocess.run([sys.executable, "-c", code], env=env, cwd=cwd, capture_output=True, text=True,
+                           check=True)
+    for file in files.stdout.split():
+        if not Path(file).resolve().is_relative_to(tree.resolve()):
+            raise SystemExit(f"bench_cli: {file} is not from {tree}; PYTHONPATH did not take precedence")
+
+
+def run_once(argv: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
+    """(CPU seconds, wall seconds) of one ``parsel`` process."""
+    parsel = Path(sys.executable).with_name("parsel")
+    started = time.perf_counter()
+    process = subprocess.Popen([str(parsel), *argv], env=env, cwd=cwd, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(process.pid, 0)
+    wall = time.perf_counter() - started
+    process.returncode = os.waitstatus_to_exitcode(status)
+    error = process.stderr.read().decode() if process.stderr else ""
+    process.stderr.close()
+    if process.returncode != 0:
+        raise SystemExit(f"bench_cli: parsel {' '.join(argv)} failed ({process.returncode}): {error.strip()}")
+    return usage.ru_utime + usage.ru_stime, wall
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base", help="commit to compare with (default: merge-base of HEAD and main)")
+    parser.add_argument("--runs", type=int, default=7, help="timed runs per command and side (default 7)")
+    args = parser.parse_args()
+    head = git("rev-parse", "--short", "HEAD")
+    try:
+        base = git("rev-parse", "--short", args.base or git("merge-base", "HEAD", "main"))
+    except subprocess.CalledProcessError as exc:
+        raise SystemExit(f"bench_cli: no base commit ({exc.stderr.strip() or 'git failed'}); pass --base REV") from None
+    if base == head and not args.base:
+        raise SystemExit("bench_cli: HEAD is on main; name the commit to compare with: --base REV")
+    with tempfile.TemporaryDirectory(prefix="bench-cli-") as tmp:
+        tmp_path = Path(tmp)
+        (tmp_path / "base").mkdir()
+        extract(base, tmp_path / "base")
+        sides = {"base": tmp_path / "base", "this": ROOT}
+        envs = {name: side_env(tree, tmp_path / f"pycache-{name}") for name, tree in sides.items()}
+        work = tmp_path / "work"
+        work.mkdir()
+        for name, tree in sides.items():
+            check_sources(envs[name], tree, work)
+        dirty = " (with uncommitted changes)" if git("status", "--porcelain", "--untracked-files=no") else ""
+        print(f"base {base} vs this checkout {head}{dirty}; {args.runs} runs per command and side, alternating; "
+              f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, load average "
+              f"{os.getloadavg()[0]:.1f}")
+        results: dict[tuple[str, str], list[tuple[float, float]]] = {}
+        for label, template in COMMANDS.items():
+            for name in sides:  # warm-up: bytecode caches, page cache
+                run_once([a.format(out=work / f"warm-{name}") for a in template], envs[name], work)
+            for i in range(args.runs):
+                for name in (sides if i % 2 == 0 else reversed(list(sides))):
+                    argv = [a.format(out=work / f"out-{name}") for a in template]
+                    results.setdefault((label, name), []).append(run_once(argv, envs[name], work))
+        print(f"\n{'command':<44}{'CPU base':>10}{'CPU this':>10}{'ratio':>8}{'wall base':>11}{'wall this':>11}"
+              f"{'ratio':>8}")
+        for label in COMMANDS:
+            cpu = {n: statistics.median(c for c, _ in results[(label, n)]) for n in sides}
+            wall = {n: statistics.median(w for _, w in results[(label, n)]) for n in sides}
+            print(f"{label:<44}{cpu['base']:>9.3f}s{cpu['this']:>9.3f}s{cpu['base'] / cpu['this']:>7.1f}x"
+                  f"{wall['base']:>10.3f}s{wall['this']:>10.3f}s{wall['base'] / wall['this']:>7.1f}x")
+        same = (work / "out-base" / "program.json").read_bytes() == (work / "out-this" / "program.json").read_bytes()
+        edit = statistics.median(c for c, _ in results[(list(COMMANDS)[-1], "this")])
+        print(f"\nedit programs of base and this checkout: {'identical' if same else 'DIFFERENT'}")
+        print(f"goal: parsel edit chair ... <= {GOAL_EDIT_CPU_S:g} s CPU: {edit:.3f} s "
+              f"{'ok' if edit <= GOAL_EDIT_CPU_S else 'NOT MET'}")
+        print("CPU: user + system time of the process (os.wait4); medians; ratio = base / this")
+
+
+if __name__ == "__main__":
+    main()

@@ -30,8 +30,10 @@ def parsel_edit_operators():
     parameters (``unit_fields`` / ``point_fields`` list which are directions and
     points, so mirroring and validation work), and a ``transform(points, amount, math)``
     that maps points (``(..., m, 3)`` float or object arrays) at ``amount`` using only
-    arithmetic and ``math.sin`` / ``math.cos``, so the same code runs numerically and
-    symbolically.
+    arithmetic and ``math.sin`` / ``math.cos`` / ``math.sqrt`` (elementwise on every kind
+    of value: :mod:`parsel_core.opmath`), so the same code runs numerically,
+    symbolically and, generated from it, in the slider page's JavaScript. Override
+    ``mirrored`` when the map is not the same in a mirror (rotations turn the other way).
     """
 
 

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from parsel_core import opmath
 from parsel_core.cas import CASBackend
 from parsel_core.errors import ParameterRangeError, ParselError, ProgramFormatError, UnknownPartError
 from parsel_core.expressions import numpy_functions, parse_expression
@@ -264,7 +265,7 @@ class Evaluation:
     removed: frozenset[str] = frozenset()
 
 
-NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos)
+NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos, sqrt=np.sqrt)
 
 
 def top_down_groups(program: Program) -> set[str]:
@@ -362,7 +363,6 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     parts a caller needs (relations of a few parts, say).
     """
     program.validate(shape)
-    math_ns = SimpleNamespace(**{k: v for k, v in backend.functions().items() if k in ("sin", "cos")})
     rest = shape.rest_corners()
     wanted = set(rest) if only is None else set(only)
     touched = set()
@@ -374,7 +374,7 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     # Touched parts start as CAS numbers so every corner entry is an expression.
     corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]
                                for pid in rest if pid in wanted or pid in touched}
-    _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), math_ns)
+    _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), opmath)
     return {pid: c for pid, c in corners.items() if pid in wanted}
 
 

@@ -4,11 +4,13 @@ A twist rotates each point about an axis by an angle proportional to the point's
 height along that axis: ``p -> o + R(amount * ((p - o) . n)) (p - o)``. Applied to a
 whole part it turns a straight leg into a twisted one; like every operator it works
 unchanged on floats and on CAS expressions, because it only uses arithmetic and
-``math.sin`` / ``math.cos``. docs/plugins.md walks through this file.
+``math.sin`` / ``math.cos``, which work entry by entry on floats, arrays and CAS
+expressions (:mod:`parsel_core.opmath`). docs/plugins.md walks through this file.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -36,18 +38,17 @@ class Twist(EditOp):
         centred = points - o
         height = centred[..., 0:1] * n[0] + centred[..., 1:2] * n[1] + centred[..., 2:3] * n[2]
         angle = height * amount  # one angle per point: (..., m, 1)
-        cos, sin = _elementwise(math.cos, angle), _elementwise(math.sin, angle)
+        cos, sin = math.cos(angle), math.sin(angle)  # elementwise on every path (parsel_core.opmath)
         x, y, z = centred[..., 0:1], centred[..., 1:2], centred[..., 2:3]
         cross = np.concatenate([n[1] * z - n[2] * y, n[2] * x - n[0] * z, n[0] * y - n[1] * x], axis=-1)
         # Rodrigues' rotation of each point by its own angle.
         return o + centred * cos + cross * sin + height * n * (1 - cos)
 
-
-def _elementwise(function, values):
-    """Apply sin/cos to an array of CAS expressions entry by entry (numpy ufuncs need no help)."""
-    if isinstance(values, np.ndarray) and values.dtype == object:
-        return np.frompyfunc(function, 1, 1)(values)
-    return function(values)
+    def mirrored(self, origin, normal, operand, feature_map=None):
+        """In a mirror the twist turns the other way: heights along the reflected axis are
+        unchanged, but a reflection reverses every rotation's sense, so the amount flips."""
+        op = super().mirrored(origin, normal, operand, feature_map)
+        return dataclasses.replace(op, amount=f"-({self.amount})")
 
 
 @hookimpl

@@ -40,3 +40,16 @@ def test_twist_round_trips_through_both_program_forms():
     assert Program.from_json(program.to_json()) == program
     assert Program.from_text(program.to_text()) == program
     assert program.ops[0].axis == (0.0, 1.0, 0.0)
+
+
+def test_the_mirror_image_of_a_twist_turns_the_other_way():
+    """Mirrored in the plane x = 0, a twist about y maps (-x, y, z) to the mirror of the image of (x, y, z)."""
+    from parsel_core.program import NUMPY_MATH
+
+    twist = Program.from_text("twist(post, origin=(0.5, 0, 0), axis=(0, 1, 0), amount=x)").ops[0]
+    mirrored = twist.mirrored((0, 0, 0), (1, 0, 0), "post")
+    assert mirrored.origin == (-0.5, 0.0, 0.0) and mirrored.amount == "-(x)"
+    points = np.array([[1.0, 2.0, 0.3], [0.2, 0.5, -0.7]])
+    flip = np.array([-1.0, 1.0, 1.0])
+    np.testing.assert_allclose(mirrored.transform(points * flip, -0.4, NUMPY_MATH),
+                               twist.transform(points, 0.4, NUMPY_MATH) * flip, atol=1e-12)

@@ -3,8 +3,9 @@
 Built-in plugins are registered first, then every entry point of the ``parsel`` group.
 A plugin that fails to import or register is skipped with a warning naming it; set
 ``PARSEL_STRICT_PLUGINS=1`` to make that an error (CI does). ``PARSEL_PLUGINS`` (a
-comma-separated list of entry-point names) limits which installed plugins load;
-``PARSEL_PLUGINS=""`` loads none besides the built-ins.
+comma-separated list of entry-point names) limits which installed plugins load (a name
+that is not installed is an error listing the installed ones); ``PARSEL_PLUGINS=""``
+loads none besides the built-ins.
 """
 
 from __future__ import annotations
@@ -70,7 +71,13 @@ class ParselPluginManager(pluggy.PluginManager):
         strict = os.environ.get("PARSEL_STRICT_PLUGINS", "") not in ("", "0")
         allow = _allowed_plugins()
         seen = set()
-        for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+        installed = sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name)
+        missing = sorted((allow or set()) - {ep.name for ep in installed})
+        if missing:
+            raise UnknownPluginError(
+                f"PARSEL_PLUGINS names {', '.join(map(repr, missing))}, which {'is' if len(missing) == 1 else 'are'}"
+                f" not installed (installed: {', '.join(sorted({ep.name for ep in installed})) or 'none'})")
+        for ep in installed:
             if ep.name in seen or (allow is not None and ep.name not in allow):
                 continue
             seen.add(ep.name)

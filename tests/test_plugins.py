@@ -280,6 +280,15 @@ def test_parsel_plugins_env_limits_what_loads():
     assert "translate" in data["provides"]["edit_operators"]  # built-ins always load
 
 
+def test_parsel_plugins_naming_a_plugin_not_installed_is_an_error_listing_the_installed():
+    result = run_parsel("plugins", env={"PARSEL_PLUGINS": "sympy,twsit"})
+    assert result.returncode == 2 and result.stdout == ""
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith("parsel: error: PARSEL_PLUGINS names 'twsit', which is not installed (installed: ")
+    assert "sympy" in lines[0] and "twist" in lines[0] and "aep" in lines[0]
+
+
 @pytest.fixture
 def broken_plugin_path(tmp_path):
     source = ROOT / "tests" / "fixtures" / "broken_plugin"

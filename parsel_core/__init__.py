@@ -2,7 +2,8 @@
 
 The core defines the data model (hexahedra, parts, relations, shape graphs), the
 editing DSL, programs and the plugin hooks; CAS backends, loaders, detectors, LLM
-providers and deformers come from plugins.
+providers and deformers come from plugins. ``edit``, ``check``, ``apply``, ``export``,
+``proxydural`` and ``variations`` (:mod:`parsel_core.api`) run whole jobs from Python.
 
 Importing the package costs only pluggy: the public names below load their modules
 (and numpy) on first use, so ``parsel --help`` and plugin registration stay cheap.
@@ -32,13 +33,17 @@ _LAZY = {
         "CompiledProgram", "Evaluation", "Parameter", "Program", "compile_program", "evaluate")},
     **{name: "parsel_core.relations" for name in (
         "Attachment", "GroundContact", "ReflectionSymmetry", "Relation", "RotationSymmetry", "TranslationSymmetry")},
+    **{name: "parsel_core.api" for name in (
+        "EditResult", "apply", "check", "edit", "export", "proxydural", "variations")},
 }
 
 __all__ = [
-    "Attachment", "ChangeCount", "ChangeDelta", "CompiledProgram", "EditOp", "Evaluation", "GroundContact",
+    "Attachment", "ChangeCount", "ChangeDelta", "CompiledProgram", "EditOp", "EditResult", "Evaluation",
+    "GroundContact",
     "Hexahedron", "KeepFixed", "Parameter", "ParselError", "Part", "Program", "ReflectionSymmetry", "Relation",
     "Rotate", "RotationSymmetry", "Scale1D", "Scale2D", "Scale3D", "ShapeGraph", "Shear", "Translate",
-    "TranslationSymmetry", "compile_program", "evaluate", "hookimpl",
+    "TranslationSymmetry", "apply", "check", "compile_program", "edit", "evaluate", "export", "hookimpl",
+    "proxydural", "variations",
 ]
 
 

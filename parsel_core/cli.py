@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 from parsel_core import __version__
 from parsel_core.errors import ParselError
+from parsel_core.io import write_all, write_outdir  # noqa: F401 - write_all: the commands' old home
 
 
 def _add_backend(parser: argparse.ArgumentParser) -> None:
@@ -85,7 +86,6 @@ DEMO_SEEDS = {"tiny_table": "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), 
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """The whole job on a bundled asset: request -> seed -> program -> report -> outputs."""
-    from pathlib import Path
 
     import numpy as np
 
@@ -236,105 +236,30 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
-def write_outdir(outdir: str, files: dict[str, str]) -> None:
-    """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
-    import os
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    target = Path(outdir)
-    parent = target.resolve().parent
-    if not parent.is_dir():
-        raise ParselError(f"{outdir}: parent directory {parent} does not exist")
-    if target.exists() and not target.is_dir():
-        raise ParselError(f"{outdir}: exists and is not a directory")
-    try:
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
-    except OSError as exc:
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    try:
-        for name, text in files.items():
-            (staging / name).write_text(text, encoding="utf-8")
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
-            os.replace(target, old / "previous")
-            try:
-                os.replace(staging, target)
-            except BaseException:
-                os.replace(old / "previous", target)  # put the previous OUTDIR back
-                shutil.rmtree(old, ignore_errors=True)
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(staging, target)
-    except OSError as exc:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+def _language_options(args: argparse.Namespace) -> dict:
+    """The language-model options every request-taking command shares."""
+    return {"provider": args.provider, "model": args.model, "samples": args.samples, "backend": args.backend,
+            "api_base": args.api_base, "cache_dir": args.cache}
 
 
 def cmd_edit(args: argparse.Namespace) -> int:
     """A request in words (language layer) or a seed edit (expert mode) -> a complete program."""
-    import time
+    from parsel_core import api
+    from parsel_core.language import InferenceError
+    from parsel_core.language.inference_io import keep_failed_record
 
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.loading import load_shape
-    from parsel_core.plugins import get_cas_backend, get_named, solvers
-    from parsel_core.report import check_program, report_from_errors
-    from parsel_core.textform import seed_from_text
-
-    if args.seed is None and not args.request:
-        raise ParselError('parsel edit needs a request in words or --seed "<op>" (expert mode)')
-    solver = get_named("solver", solvers(), args.solver)
-    get_cas_backend(args.backend)  # fail early on an unknown backend
-    started = time.perf_counter()
-    shape = load_shape(args.shape)
-    load_s = time.perf_counter() - started
-    hints = _parse_hints(args.hint)
-    breaks = list(args.break_ or ())
-    metadata: dict = {"solver": solver.name, "shape": shape.name}
-    files: dict[str, str] = {}
-    inference = None
-    if args.seed is not None:
-        seed = seed_from_text(args.seed)
-        seed.validate(shape)
-        metadata.update({"seed": args.seed})
-        if args.request:
-            metadata["request"] = args.request
-    else:
-        inference = _infer(shape, args, files)
-        seed = inference.seed
-        hints = {**inference.hints, **hints}
-        breaks = sorted(set(inference.breaks) | set(breaks))
-        metadata.update({"request": args.request, "provider": args.provider, "mode": args.mode})
-        if args.model:
-            metadata["model"] = args.model
-    metadata.update({"hints": dict(hints), "breaks": breaks})
-    options = {"nhbd": not args.no_nhbd, "breaking": not args.no_breaking, "backend": args.backend}
-    if args.tau is not None:
-        options["tau"] = args.tau
-    request = SolveRequest(shape, seed, hints, tuple(breaks), options)
-    if inference is not None and inference.program is not None:  # one-shot: the model wrote it all
-        program, rejected, stats = inference.program, [], {}
-        metadata["solver"] = "none (one-shot)"
-    else:
-        result = solver.run(request)
-        program, rejected, stats = result.program, result.rejected, result.stats
-    program = type(program)(program.ops, program.parameters, metadata)
-    online = stats.get("online") if isinstance(stats.get("online"), dict) else None
-    if online is not None and "errors" in online:  # a solver that re-solves per value checked itself
-        report = report_from_errors(shape, online["errors"], request.breaks, online["samples"])
-    else:
-        report = check_program(shape, program, request.breaks)
-    report.extra.update({"shape": shape.name, "solver": metadata["solver"], "rejected": rejected,
-                         "stats": {**stats, "load_s": load_s}})
-    if inference is not None:
-        report.extra["language"] = inference.summary()
-    files.update({"program.json": program.to_json(), "report.json": json.dumps(report.to_dict(), indent=1) + "\n"})
-    write_outdir(args.output, files)
+    options = {"tau": args.tau} if args.tau is not None else {}
+    try:
+        result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
+                          breaks=list(args.break_ or ()), solver=args.solver, nhbd=not args.no_nhbd,
+                          breaking=not args.no_breaking, replay=args.replay, timeout=args.timeout,
+                          retries=args.retries, with_image=args.with_image, **_language_options(args), **options)
+    except InferenceError as exc:
+        # The record of what was asked and answered is the useful output of a failed inference;
+        # a previous OUTDIR is never replaced by it.
+        raise keep_failed_record(exc, args.output, api.records_jsonl(exc.record)) from None
+    write_outdir(args.output, result.files())
+    program, report = result.program, result.report
     counts = report.counts()
     print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
           f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
@@ -344,137 +269,44 @@ def cmd_edit(args: argparse.Namespace) -> int:
     return 0
 
 
-def _records_jsonl(records) -> str:
-    return "".join(json.dumps(r, sort_keys=True) + "\n" for r in records)
-
-
-def _infer(shape, args: argparse.Namespace, files: dict[str, str]):
-    """Ask the language layer for seed, hints and breaks; keep every prompt and reply."""
-    from parsel_core.language import InferenceError, infer
-    from parsel_core.language.inference_io import keep_failed_record
-
-    options = {"api_base": args.api_base, "replay": args.replay, "cache_dir": args.cache, "timeout": args.timeout,
-               "retries": args.retries}
-    if args.with_image:
-        from parsel_core.language.picture import shape_picture
-
-        options["image"] = shape_picture(shape)
-    try:
-        inference = infer(shape, args.request, provider=args.provider, model=args.model, mode=args.mode,
-                          samples=args.samples, options={k: v for k, v in options.items() if v is not None})
-    except InferenceError as exc:
-        # The record of what was asked and answered is the useful output of a failed inference;
-        # a previous OUTDIR is never replaced by it.
-        raise keep_failed_record(exc, args.output, _records_jsonl(exc.record)) from None
-    files["record.jsonl"] = _records_jsonl(inference.record)
-    return inference
-
-
-def _solve_request(shape, request_text: str, args: argparse.Namespace, records: list):
-    """One request in words -> (program, rejected) through the language layer and the solver."""
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.language import infer
-    from parsel_core.plugins import get_named, solvers
-
-    options = {k: v for k, v in {"api_base": args.api_base, "cache_dir": args.cache}.items() if v is not None}
-    inference = infer(shape, request_text, provider=args.provider, model=args.model, samples=args.samples,
-                      options=options)
-    records.extend(inference.record)
-    solver = get_named("solver", solvers(), "aep")
-    result = solver.run(SolveRequest(shape, inference.seed, inference.hints, tuple(inference.breaks),
-                                     {"backend": args.backend}))
-    return result.program, result.rejected, inference.breaks
-
-
 def cmd_proxydural(args: argparse.Namespace) -> int:
     """Proxydural modelling (paper 8.1): N requests, one program each, stacked with N sliders."""
-    from parsel_core.language import InferenceError, proxydural_requests
-    from parsel_core.loading import load_shape
-    from parsel_core.report import check_each_parameter, check_program
+    from parsel_core import api
 
-    shape = load_shape(args.shape)
-    proposal = proxydural_requests(shape, count=args.count, provider=args.provider, model=args.model)
-    records = list(proposal.record)
-    composed, used, skipped, breaks = None, [], [], set()
-    for i, text in enumerate(proposal.requests, start=1):
-        try:
-            program, _, request_breaks = _solve_request(shape, text, args, records)
-        except InferenceError as exc:
-            skipped.append({"request": text, "reason": str(exc)})
-            continue
-        program = program.renamed(program.parameters[0].name, f"x{i}")
-        composed = program if composed is None else composed.then(program)
-        used.append({"request": text, "parameter": f"x{i}"})
-        breaks.update(request_breaks)
-    if composed is None:
-        raise ParselError(f"none of the {len(proposal.requests)} proposed requests could be turned into a program")
-    composed = type(composed)(composed.ops, composed.parameters, {
-        "solver": "aep", "shape": shape.name, "application": "proxydural", "requests": used})
-    report = check_program(shape, composed, sorted(breaks))
-    per_slider = check_each_parameter(shape, composed, sorted(breaks))
-    report.extra.update({"shape": shape.name, "requests": used, "skipped": skipped, "per_slider": per_slider})
-    write_outdir(args.output, {"program.json": composed.to_json(),
-                               "report.json": json.dumps(report.to_dict(), indent=1) + "\n",
-                               "record.jsonl": _records_jsonl(records)})
-    counts = report.counts()
-    print(f"{len(used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in used)}); relations: "
-          f"{counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken "
-          f"-> {args.output}")
-    for name, c in per_slider.items():
+    result = api.proxydural(args.shape, args.count, **_language_options(args))
+    write_outdir(args.output, result.files())
+    counts = result.report.counts()
+    print(f"{len(result.used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in result.used)}); "
+          f"relations: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} "
+          f"broken -> {args.output}")
+    for name, c in result.per_slider.items():
         print(f"  {name} alone: {c['kept']} kept, {c['broken_on_purpose']} broken on purpose, {c['broken']} broken")
-    for item in skipped:
+    for item in result.skipped:
         print(f"  skipped: {item['request']}: {item['reason']}")
     return 0
 
 
 def cmd_variations(args: argparse.Namespace) -> int:
     """Shape variation families (paper 8.2): variants of one request, one program each."""
-    from parsel_core.language import InferenceError, variation_requests
-    from parsel_core.loading import load_shape
-    from parsel_core.report import check_program
+    from parsel_core import api
 
-    shape = load_shape(args.shape)
-    proposal = variation_requests(shape, args.request, count=args.count, provider=args.provider, model=args.model)
-    records = list(proposal.record)
-    files: dict[str, str] = {}
-    summary = []
-    for i, text in enumerate(proposal.requests, start=1):
-        try:
-            program, rejected, request_breaks = _solve_request(shape, text, args, records)
-        except InferenceError as exc:
-            summary.append({"request": text, "skipped": str(exc)})
-            continue
-        program = type(program)(program.ops, program.parameters, {
-            "solver": "aep", "shape": shape.name, "application": "variations", "request": text,
-            "family": args.request})
-        report = check_program(shape, program, request_breaks)
-        name = f"variation_{i:02d}"
-        files[f"{name}.program.json"] = program.to_json()
-        files[f"{name}.report.json"] = json.dumps(report.to_dict(), indent=1) + "\n"
-        summary.append({"request": text, "program": f"{name}.program.json", "counts": report.counts()})
-    if not any("program" in item for item in summary):
-        raise ParselError(f"none of the variants of {args.request!r} could be turned into a program")
-    files["variations.json"] = json.dumps({"request": args.request, "shape": shape.name, "variants": summary},
-                                          indent=1) + "\n"
-    files["record.jsonl"] = _records_jsonl(records)
-    write_outdir(args.output, files)
-    for item in summary:
-        if "program" in item:
-            c = item["counts"]
-            print(f"{item['program']}: {item['request']} ({c['kept']} kept, {c['broken']} broken)")
+    result = api.variations(args.shape, args.request, args.count, **_language_options(args))
+    write_outdir(args.output, result.files())
+    for i, variant in enumerate(result.variants, start=1):
+        if variant.report is not None:
+            c = variant.report.counts()
+            print(f"variation_{i:02d}.program.json: {variant.request} ({c['kept']} kept, {c['broken']} broken)")
         else:
-            print(f"skipped: {item['request']}: {item['skipped']}")
+            print(f"skipped: {variant.request}: {variant.skipped}")
     return 0
 
 
 def cmd_check(args: argparse.Namespace) -> int:
     """Recompute the relation report of any program on a shape."""
-    from parsel_core.loading import load_program, load_shape
-    from parsel_core.report import check_program
+    from parsel_core import api
 
-    shape = load_shape(args.shape)
-    program = load_program(args.program)
-    report = check_program(shape, program, tuple(args.break_ or ()), samples=args.samples)
+    shape = api.as_shape(args.shape)
+    report = api.check(shape, args.program, args.break_ or (), samples=args.samples)
     if args.json:
         print(json.dumps(report.to_dict(), indent=1))
         return 0
@@ -486,97 +318,18 @@ def cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
-def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:
-    """Write every file or none: ``write(i, staging_path)`` fills a staging folder beside the
-    files, which are then moved into place, files they replace set aside; on a failure the
-    new files are removed and the old ones put back."""
-    import os
-    import shutil
-    import tempfile
-
-    folder = paths[0].parent
-    if not folder.is_dir():
-        raise ParselError(f"{paths[0]}: directory {folder} does not exist")
-    for path in paths:
-        if path.is_dir():
-            raise ParselError(f"{path}: is a directory")
-    try:
-        staging = Path(tempfile.mkdtemp(prefix=".parsel-", dir=folder))
-    except OSError as exc:
-        raise ParselError(f"{paths[0]}: cannot write: {exc.strerror}") from None
-    new, old = staging / "new", staging / "old"
-    moved: list[Path] = []
-    kept: list[Path] = []  # targets whose previous file was set aside in ``old``
-    current = paths[0]
-
-    def roll_back() -> None:
-        for path in moved:
-            path.unlink(missing_ok=True)
-        for path in kept:
-            os.replace(old / path.name, path)
-
-    try:
-        new.mkdir()
-        old.mkdir()
-        for i, path in enumerate(paths):
-            current = path
-            write(i, new / path.name)
-        for path in paths:
-            current = path
-            if path.exists():
-                os.replace(path, old / path.name)
-                kept.append(path)
-            os.replace(new / path.name, path)
-            moved.append(path)
-    except OSError as exc:
-        roll_back()
-        raise ParselError(f"{current}: cannot write: {exc.strerror}") from None
-    except BaseException:
-        roll_back()
-        raise
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-
-
 def cmd_apply(args: argparse.Namespace) -> int:
     """Evaluate a program at parameter values and export the edited shape."""
-    from pathlib import Path
+    from parsel_core import api
+    from parsel_core.loading import parse_assignments
 
-    import numpy as np
-
-    from parsel_core.loading import load_program, load_shape, parse_assignments
-    from parsel_core.plugins import exporter_for
-    from parsel_core.program import evaluate
-
-    shape = load_shape(args.shape)
-    program = load_program(args.program)
-    program.validate(shape)
-    values = program.values(parse_assignments(args.set))
-    output = Path(args.output)
-    exporter = exporter_for(shape, output)
-    if args.sweep is not None:
-        if args.sweep < 2:
-            raise ParselError("--sweep needs at least 2 steps")
-        if not program.parameters:
-            raise ParselError(f"{args.program}: the program has no parameter to sweep")
-        name = program.parameters[0]
-        suffix = next(ext for ext in exporter.extensions if output.name.lower().endswith(ext))
-        stem = output.name[: -len(suffix)]
-        paths = [output.with_name(f"{stem}_{i:03d}{suffix}") for i in range(args.sweep)]
-        xs = np.linspace(name.lo, name.hi, args.sweep)
-        write_all(paths, lambda i, path: exporter.export(
-            shape, evaluate(program, shape, {**values, name.name: float(xs[i])}), path))
-        for path in paths:
-            print(path)
-        return 0
-    exporter.export(shape, evaluate(program, shape, values), output)
-    print(output)
+    for path in api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep):
+        print(path)
     return 0
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
     """Convert a program between its JSON and text forms (by the output suffix)."""
-    from pathlib import Path
 
     from parsel_core.io import atomic_write_text
     from parsel_core.loading import load_program

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -66,3 +68,86 @@ def read_json(path: Path | str, what: str = "") -> Any:
     except (ValueError, RecursionError) as exc:  # a number too long to convert, nesting too deep
         raise ParselError(f"{path}: {file_is}not usable JSON: {' '.join(str(exc).split()) or type(exc).__name__}") \
             from None
+
+
+def write_outdir(outdir: str | Path, files: dict[str, str]) -> None:
+    """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
+    target = Path(outdir)
+    parent = target.resolve().parent
+    if not parent.is_dir():
+        raise ParselError(f"{outdir}: parent directory {parent} does not exist")
+    if target.exists() and not target.is_dir():
+        raise ParselError(f"{outdir}: exists and is not a directory")
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    except OSError as exc:
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
+    try:
+        for name, text in files.items():
+            (staging / name).write_text(text, encoding="utf-8")
+        if target.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
+            os.replace(target, old / "previous")
+            try:
+                os.replace(staging, target)
+            except BaseException:
+                os.replace(old / "previous", target)  # put the previous OUTDIR back
+                shutil.rmtree(old, ignore_errors=True)
+                raise
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(staging, target)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:
+    """Write every file or none: ``write(i, staging_path)`` fills a staging folder beside the
+    files, which are then moved into place, files they replace set aside; on a failure the
+    new files are removed and the old ones put back."""
+    folder = paths[0].parent
+    if not folder.is_dir():
+        raise ParselError(f"{paths[0]}: directory {folder} does not exist")
+    for path in paths:
+        if path.is_dir():
+            raise ParselError(f"{path}: is a directory")
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=".parsel-", dir=folder))
+    except OSError as exc:
+        raise ParselError(f"{paths[0]}: cannot write: {exc.strerror}") from None
+    new, old = staging / "new", staging / "old"
+    moved: list[Path] = []
+    kept: list[Path] = []  # targets whose previous file was set aside in ``old``
+    current = paths[0]
+
+    def roll_back() -> None:
+        for path in moved:
+            path.unlink(missing_ok=True)
+        for path in kept:
+            os.replace(old / path.name, path)
+
+    try:
+        new.mkdir()
+        old.mkdir()
+        for i, path in enumerate(paths):
+            current = path
+            write(i, new / path.name)
+        for path in paths:
+            current = path
+            if path.exists():
+                os.replace(path, old / path.name)
+                kept.append(path)
+            os.replace(new / path.name, path)
+            moved.append(path)
+    except OSError as exc:
+        roll_back()
+        raise ParselError(f"{current}: cannot write: {exc.strerror}") from None
+    except BaseException:
+        roll_back()
+        raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import ast
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from parsel_core.errors import ProgramFormatError
 from parsel_core.expressions import FUNCTIONS, parse_expression
@@ -76,14 +76,21 @@ def amount_to_js(text: str, parameters: Sequence[str], parameter: str = "p") -> 
     return _js(expression.tree, parameter, frozenset(parameters), expression.text)
 
 
-def amounts_script(texts: Sequence[str], parameters: Sequence[str]) -> str:
-    """A script defining ``PARSEL_AMOUNTS``: one function of the parameter values per op."""
+def amounts_script(texts: Sequence[str], parameters: Sequence[str], point_maps: Mapping[int, str] | None = None) -> str:
+    """A script defining ``PARSEL_AMOUNTS`` (one function of the parameter values per op) and
+    ``PARSEL_POINT_MAPS`` (op index -> generated point map, :mod:`parsel_view.opjs`)."""
     lines = ["\"use strict\";", "var PARSEL_AMOUNTS = ["]
     for i, text in enumerate(texts):
         body = amount_to_js(text, parameters)
         comment = " ".join(str(text).split()).replace("*/", "* /")
         lines.append(f"  /* op {i}: {comment} */ function (p) {{ return {body}; }},")
     lines.append("];")
-    lines.append("if (typeof window !== \"undefined\") { window.PARSEL_AMOUNTS = PARSEL_AMOUNTS; }")
-    lines.append("if (typeof module !== \"undefined\") { module.exports = PARSEL_AMOUNTS; }")
+    lines.append("var PARSEL_POINT_MAPS = {")
+    for index, text in sorted((point_maps or {}).items()):
+        lines.append(f"  {int(index)}: {text},")
+    lines.append("};")
+    lines.append("if (typeof window !== \"undefined\") { window.PARSEL_AMOUNTS = PARSEL_AMOUNTS; "
+                 "window.PARSEL_POINT_MAPS = PARSEL_POINT_MAPS; }")
+    lines.append("if (typeof module !== \"undefined\") { module.exports = { amounts: PARSEL_AMOUNTS, "
+                 "pointMaps: PARSEL_POINT_MAPS }; }")
     return "\n".join(lines) + "\n"

@@ -1,7 +1,8 @@
 """What the slider page needs, computed once in Python: the program as data, the meshes as cage coordinates.
 
-The browser re-implements the ops' point maps and the group layouts
-(``static/parsel_eval.js``), so here every op is reduced to plain numbers: its name,
+The browser re-implements the built-in ops' point maps and the group layouts
+(``static/parsel_eval.js``); other part ops (plugins') get a point map generated from
+their ``transform`` (:mod:`parsel_view.opjs`). Here every op is reduced to plain numbers: its name,
 the parts it moves (a virtual parent's members included, as
 ``parsel_core.program._apply_part_ops`` does), the corners a feature op moves, and its
 own origin / direction fields. Group layouts get the constants that only depend on
@@ -65,7 +66,7 @@ def js_class(op: EditOp) -> type[EditOp] | None:
     """The built-in op class whose point map the page re-implements for ``op``, if any.
 
     A subclass that overrides ``transform`` (or registers another name) is a different
-    map, so it has no JavaScript form."""
+    map: its JavaScript is generated from its ``transform`` (:mod:`parsel_view.opjs`)."""
     for cls in JS_PART_OPS + JS_GROUP_OPS:
         if isinstance(op, cls) and type(op).transform is cls.transform and op.name == cls.name:
             return cls
@@ -74,10 +75,9 @@ def js_class(op: EditOp) -> type[EditOp] | None:
 
 def _op_data(index: int, op: EditOp, shape: ShapeGraph, anchors_only: set[str]) -> dict[str, Any]:
     cls = js_class(op)
-    if cls is None:
-        raise ParselError(f"op {index} ({op.name} on {op.operand!r}) has no JavaScript form, so the slider page "
-                          f"cannot show it (the page implements: "
-                          f"{', '.join(c.name for c in JS_PART_OPS + JS_GROUP_OPS)})")
+    if op.acts_on != "part" and cls is None:
+        raise ParselError(f"op {index} ({op.name} on {op.operand!r}) re-lays out a group in a way the slider page "
+                          f"does not implement (it implements: {', '.join(c.name for c in JS_GROUP_OPS)})")
     if cls in JS_GROUP_OPS:
         return {"index": index, "op": op.name, "kind": "group", "group": op.operand, "mode": op.mode}
     targets = [op.operand]
@@ -85,7 +85,23 @@ def _op_data(index: int, op: EditOp, shape: ShapeGraph, anchors_only: set[str]) 
         targets += list(shape.relations[op.operand].members)
     params = {key: list(value) if isinstance(value, tuple) else value for key, value in op.params().items()}
     return {"index": index, "op": op.name, "kind": "part", "targets": targets,
-            "corners": list(op.corner_indices) if op.feature is not None else None, "params": params}
+            "corners": list(op.corner_indices) if op.feature is not None else None, "params": params,
+            "generated": cls is None}
+
+
+def generated_point_maps(program: Program) -> dict[int, str]:
+    """JavaScript point maps, by op index, of the part ops the page has no hand-written map for."""
+    from parsel_view.opjs import point_map_js
+
+    maps = {}
+    for index, op in enumerate(program.ops):
+        if op.acts_on == "part" and js_class(op) is None:
+            try:
+                maps[index] = point_map_js(op)
+            except ParselError as exc:
+                raise ParselError(f"op {index} ({op.name} on {op.operand!r}): {exc}; the slider page cannot show "
+                                  f"it") from None
+    return maps
 
 
 def _group_data(group_id: str, ops: list[tuple[int, GroupOp]], shape: ShapeGraph) -> dict[str, Any]:
@@ -197,5 +213,6 @@ def build_page_data(program: Program, shape: ShapeGraph, title: str | None = Non
         "meshes": mesh_data(shape),
         **data,
     }
-    script = amounts_script([op.amount for op in program.ops], program.parameter_names)
+    script = amounts_script([op.amount for op in program.ops], program.parameter_names,
+                            generated_point_maps(program))
     return PageData(scene, script, program, shape, dict(meta or {}))

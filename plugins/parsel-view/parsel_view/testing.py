@@ -35,9 +35,9 @@ _NODE_RUNNER = r"""
 const fs = require("fs");
 const [evalPath, amountsPath, scenePath, valuesPath] = process.argv.slice(2);
 const ParselEval = require(evalPath);
-const amounts = require(amountsPath);
+const program = require(amountsPath);
 const scene = JSON.parse(fs.readFileSync(scenePath, "utf8"));
-const model = new ParselEval.Model(scene, amounts);
+const model = new ParselEval.Model(scene, program.amounts, program.pointMaps);
 const plain = (c) => Array.from(c, (v) => (Number.isNaN(v) ? null : v));
 const results = JSON.parse(fs.readFileSync(valuesPath, "utf8")).map((values) => {
   const evaluation = model.evaluate(values);

@@ -103,18 +103,19 @@ def test_program_without_shape_metadata_needs_shape(tmp_path, capsys):
 
 
 @dataclass(frozen=True)
-class Wobble(Translate):
-    """An op of a plugin, with a point map the page does not know."""
+class Clamp(Translate):
+    """An op of a plugin whose point map branches on the amount: no closed form to write in JavaScript."""
 
-    name: ClassVar[str] = "wobble"
+    name: ClassVar[str] = "clamp"
 
     def transform(self, points, amount, math):
-        return points + amount
+        return points + (amount if amount > 0 else 0)
 
 
 def test_programs_for_an_op_the_page_cannot_draw_are_named(chair):
-    program = Program((Wobble("seat"),))
-    with pytest.raises(ParselError, match=r"op 0 \(wobble on 'seat'\) has no JavaScript form"):
+    program = Program((Clamp("seat"),))
+    with pytest.raises(ParselError, match=r"op 0 \(clamp on 'seat'\): clamp: transform cannot run on symbols "
+                                          r"\(TypeError: .*\), so it has no JavaScript form; the slider page cannot"):
         build_page_data(program, chair)
 
 

@@ -49,7 +49,7 @@ def test_node_evaluates_like_numpy(tmp_path):
     script = tmp_path / "amounts.js"
     script.write_text(amounts_script(EXPRESSIONS, ["x", "y"]), encoding="utf-8")
     points = [{"x": 0.3, "y": -0.7}, {"x": 1.7, "y": 0.2}, {"x": 0.0, "y": 0.0}]
-    runner = ("const f = require(process.argv[1]); const pts = JSON.parse(process.argv[2]);"
+    runner = ("const f = require(process.argv[1]).amounts; const pts = JSON.parse(process.argv[2]);"
               "process.stdout.write(JSON.stringify(pts.map(p => f.map(g => { const v = g(p); "
               "return Number.isFinite(v) ? v : String(v); }))));")
     done = subprocess.run([node_path(), "-e", runner, str(script), json.dumps(points)], capture_output=True, text=True,

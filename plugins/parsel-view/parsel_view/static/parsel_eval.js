@@ -3,7 +3,8 @@
  * Mirrors parsel_core.program.evaluate for one set of parameter values:
  *   1. every op's amount: PARSEL_AMOUNTS[i](values), generated from the safe expression tree;
  *   2. part ops in program order, each the point map of parsel_core/ops.py on the corners
- *      of its targets (on a feature, only that feature's corners);
+ *      of its targets (on a feature, only that feature's corners); ops without a map here
+ *      (plugins') use the one generated from their transform, PARSEL_POINT_MAPS[i];
  *   3. group layouts (parsel_core/layout.py): instances of the first member as edited;
  *   4. meshes: each vertex holds its 8 trilinear weights in its part's rest hexahedron,
  *      so its position is one (m, 8) @ (8, 3) product with the evaluated corners.
@@ -87,8 +88,9 @@
   };
   var ALL_CORNERS = [0, 1, 2, 3, 4, 5, 6, 7];
 
-  function applyOp(op, corners, amount) {
-    var map = POINT_MAPS[op.op], q = [0, 0, 0], out = [0, 0, 0];
+  /* generated: the op's point map from program.js (PARSEL_POINT_MAPS), for ops without a hand-written one. */
+  function applyOp(op, corners, amount, generated) {
+    var map = generated || POINT_MAPS[op.op], q = [0, 0, 0], out = [0, 0, 0];
     var which = op.corners || ALL_CORNERS;
     for (var i = 0; i < which.length; i++) {
       var k = which[i];
@@ -235,9 +237,10 @@
   }
 
   /* A program on a shape: evaluate(values) gives corners; deform(...) moves the meshes. */
-  function Model(scene, amounts) {
+  function Model(scene, amounts, pointMaps) {
     this.scene = scene;
     this.amountFns = amounts;
+    this.pointMaps = pointMaps || {};
     this.parameters = scene.parameters;
     this.rest = {};
     for (var pid in scene.rest) this.rest[pid] = Float64Array.from(scene.rest[pid]);
@@ -275,7 +278,13 @@
     var ops = this.scene.ops;
     for (i = 0; i < ops.length; i++) {
       if (ops[i].kind !== "part") continue;
-      for (t = 0; t < ops[i].targets.length; t++) applyOp(ops[i], parts[ops[i].targets[t]], amounts[i]);
+      var generated = ops[i].generated ? this.pointMaps[ops[i].index] : null;
+      if (ops[i].generated && typeof generated !== "function") {
+        throw new Error("op " + ops[i].index + " (" + ops[i].op + ") has no point map in program.js");
+      }
+      for (t = 0; t < ops[i].targets.length; t++) {
+        applyOp(ops[i], parts[ops[i].targets[t]], amounts[i], generated);
+      }
     }
     var instances = {}, removed = {};
     for (i = 0; i < this.scene.groups.length; i++) {

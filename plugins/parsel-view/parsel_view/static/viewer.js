@@ -318,7 +318,7 @@
   }
 
   function start(scene) {
-    var model = new ParselEval.Model(scene, window.PARSEL_AMOUNTS || []);
+    var model = new ParselEval.Model(scene, window.PARSEL_AMOUNTS || [], window.PARSEL_POINT_MAPS || {});
     state.model = model;
     state.values = model.defaults();
     document.title = "parsel: " + scene.title;

@@ -143,3 +143,21 @@ def test_frame_rate_on_the_bundled_chair(chair):
     assert updates == sum(sweep["frames"] for sweep in sweeps) + drawn["frames"]  # every frame was a slider step
     assert median["p95WorkMs"] <= 1000 / REFRESH_HZ, report
     assert median["fps"] >= REFRESH_HZ, report
+
+
+def test_a_plugin_operator_moves_on_the_slider_page(chair, tmp_path):
+    """The twist example plugin's op: its generated point map moves the legs' vertices as Python does."""
+    from .test_opjs import twist_program
+
+    program = twist_program()
+    html = write_html(build_page_data(program, chair), tmp_path / "twist.html")
+    with chromium_page() as page:
+        open_page(page, html.as_uri())
+        before = page_vertices(page, "leg.000")
+        page.locator("#slider-x").fill("0.7")
+        values = page.evaluate("parsel.values()")
+        expected = deformed_vertices(chair, evaluate(program, chair, values))
+        for name in ("leg.000", "seat"):
+            np.testing.assert_allclose(page_vertices(page, name), expected[name], atol=2e-7, err_msg=name)
+        assert np.abs(page_vertices(page, "leg.000") - before).max() > 0.01
+        assert page.parsel_errors == []

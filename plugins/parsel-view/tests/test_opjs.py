@@ -81,3 +81,23 @@ def test_the_page_evaluates_a_plugin_op_like_python(chair):
     scene = build_page_data(program, chair).scene
     assert [op.get("generated") for op in scene["ops"]] == [True, True, False]
     assert_same(program, chair, [{"x": 0.0}, {"x": 0.4}, {"x": 1.0}])
+
+
+def twist_program() -> Program:
+    from parsel_core.plugins import edit_operators
+
+    if "twist" not in edit_operators():
+        pytest.skip("the twist example plugin (plugins/parsel-example-twist) is not installed")
+    return Program.from_text("param x in [-1, 1] default 0\n"
+                             "twist('leg.000', origin=(-0.19, 0, -0.19), axis=(0, 1, 0), amount=3 * x)\n"
+                             "twist(face(seat, 'v+'), origin=(0, 0.43, 0), axis=(0, 1, 0), amount=x)\n")
+
+
+@pytest.mark.skipif(node_path() is None, reason="node is not installed (the page's JS runs in Node here)")
+def test_the_twist_example_on_the_page(chair):
+    from .test_page_eval import assert_same
+
+    program = twist_program()
+    assert [op.get("generated") for op in build_page_data(program, chair).scene["ops"]] == [True, True]
+    results = assert_same(program, chair, [{"x": 0.0}, {"x": 0.6}, {"x": -1.0}])
+    assert results[1]["parts"]["leg.000"] != results[0]["parts"]["leg.000"]  # it moved

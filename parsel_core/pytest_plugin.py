@@ -3,6 +3,8 @@
 * ``parsel_shape``: the built-in ``tiny_table`` shape (11 parts, 26 relations).
 * ``parsel_register``: register a throwaway plugin for one test, unregistered after.
 * ``parsel_backend``: each installed CAS backend in turn (the test runs once per backend).
+* ``parsel_check``: the conformance kit's checks (:mod:`parsel_core.testing`) of the plugins
+  named by ``--parsel-plugin NAME`` (repeatable) or by the test module's ``PARSEL_PLUGINS``.
 """
 
 from __future__ import annotations
@@ -36,7 +38,19 @@ def parsel_register() -> Iterator[Callable[[Any], Any]]:
         pm.unregister(name=name)
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.getgroup("parsel").addoption(
+        "--parsel-plugin", action="append", default=[], metavar="NAME",
+        help="run the parsel conformance kit on the installed plugin NAME (its entry-point name; repeatable)")
+
+
 def pytest_generate_tests(metafunc: pytest.Metafunc) -> None:
+    if "parsel_check" in metafunc.fixturenames:
+        from parsel_core.testing import plugin_checks
+
+        names = metafunc.config.getoption("parsel_plugin") or list(getattr(metafunc.module, "PARSEL_PLUGINS", []))
+        checks = [check for name in names for check in plugin_checks(name)]
+        metafunc.parametrize("parsel_check", checks, ids=[check.id for check in checks])
     if "parsel_backend" in metafunc.fixturenames:
         from parsel_core.plugins import cas_backend_names
 

@@ -344,6 +344,16 @@ def cmd_convert(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_new_plugin(args: argparse.Namespace) -> int:
+    """Write a plugin package to start from: one operator, its tests, the conformance kit and CI."""
+    from parsel_core.scaffold import write_plugin
+
+    target = args.output or f"parsel-{args.name.replace('_', '-')}"
+    for path in write_plugin(args.name, target):
+        print(path)
+    return 0
+
+
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The command line; ``argv`` (when given) lets it skip plugins the command does not need."""
     parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.")
@@ -441,6 +451,12 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                    help="also draw the hexahedra, coloured by label, to FILE (.png, .svg or .pdf)")
     p.add_argument("--no-detect", action="store_true", help="do not run relation detectors")
     p.set_defaults(func=cmd_inspect)
+
+    p = sub.add_parser("new-plugin", help="write a plugin package (an edit operator, tests, the conformance kit, "
+                                          "CI) to start from")
+    p.add_argument("name", help="the operator's and the entry point's name, a lower-case identifier (e.g. taper)")
+    p.add_argument("-o", "--output", metavar="DIR", help="a new folder for the package (default: parsel-NAME)")
+    p.set_defaults(func=cmd_new_plugin)
 
     p = sub.add_parser("convert", help="convert a program between JSON (.json) and text form")
     p.add_argument("program")

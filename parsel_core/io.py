@@ -84,6 +84,7 @@ def write_outdir(outdir: str | Path, files: dict[str, str]) -> None:
         raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
     try:
         for name, text in files.items():
+            (staging / name).parent.mkdir(parents=True, exist_ok=True)  # names may hold sub-folders
             (staging / name).write_text(text, encoding="utf-8")
         if target.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))

@@ -127,9 +127,23 @@ def _group_data(group_id: str, ops: list[tuple[int, GroupOp]], shape: ShapeGraph
     return data
 
 
+def rest_values(program: Program) -> dict[str, float]:
+    """The slider values the page opens at: those where every amount is zero (the shape at
+    rest, usually 0), if they lie in the ranges; otherwise the parameters' defaults."""
+    from parsel_core.expressions import numpy_functions, parse_expression
+
+    zero = {p.name: min(max(0.0, p.lo), p.hi) for p in program.parameters}
+    with np.errstate(all="ignore"):
+        amounts = [float(parse_expression(op.amount).build(zero, numpy_functions())) for op in program.ops]
+    if all(abs(a) <= 1e-12 for a in amounts):
+        return zero
+    return {p.name: p.default for p in program.parameters}
+
+
 def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
     """The program reduced to numbers for ``parsel_eval.js`` (amounts go to :func:`amounts_script`)."""
     program.validate(shape)
+    rest = rest_values(program)
     anchors_only = top_down_groups(program)
     ops = [_op_data(i, op, shape, anchors_only) for i, op in enumerate(program.ops)]
     per_group: dict[str, list[tuple[int, GroupOp]]] = {}
@@ -137,7 +151,8 @@ def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
         if isinstance(op, GroupOp):
             per_group.setdefault(op.operand, []).append((i, op))
     return {
-        "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default} for p in program.parameters],
+        "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default, "rest": rest[p.name]}
+                       for p in program.parameters],
         "ops": ops,
         "groups": [_group_data(g, group_ops, shape) for g, group_ops in per_group.items()],
         "rest": {pid: np.asarray(c, dtype=float).ravel().tolist() for pid, c in shape.rest_corners().items()},

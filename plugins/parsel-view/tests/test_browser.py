@@ -161,3 +161,27 @@ def test_a_plugin_operator_moves_on_the_slider_page(chair, tmp_path):
             np.testing.assert_allclose(page_vertices(page, name), expected[name], atol=2e-7, err_msg=name)
         assert np.abs(page_vertices(page, "leg.000") - before).max() > 0.01
         assert page.parsel_errors == []
+
+
+def test_the_page_opens_at_rest_and_arrow_keys_move_one_percent(chair, tmp_path):
+    """Default 0.5 in the program, but the page opens where every amount is zero: the shape as loaded."""
+    program = Program.from_text("param x in [-3, 1] default 0.5\n"
+                                "scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\n")
+    html = write_html(build_page_data(program, chair), tmp_path / "rest.html")
+    with chromium_page() as page:
+        open_page(page, html.as_uri())
+        assert page.evaluate("parsel.values()") == {"x": 0.0}
+        np.testing.assert_allclose(page_vertices(page, "seat"), np.asarray(chair.parts["seat"].mesh.vertices),
+                                   atol=2e-7)
+        slider = page.locator("#slider-x")
+        slider.focus()
+        page.keyboard.press("ArrowRight")
+        assert page.evaluate("parsel.values()")["x"] == pytest.approx(0.04)  # 1% of [-3, 1]
+        page.keyboard.press("ArrowLeft")
+        page.keyboard.press("ArrowLeft")
+        assert page.evaluate("parsel.values()")["x"] == pytest.approx(-0.04)
+        page.keyboard.press("End")
+        assert page.evaluate("parsel.values()")["x"] == 1.0
+        expected = deformed_vertices(chair, evaluate(program, chair, {"x": 1.0}))
+        np.testing.assert_allclose(page_vertices(page, "seat"), expected["seat"], atol=2e-7)
+        assert page.parsel_errors == []

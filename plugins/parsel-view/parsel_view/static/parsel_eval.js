@@ -265,6 +265,16 @@
     return values;
   };
 
+  /* The values where the shape is at rest (every amount zero), which the page opens at. */
+  Model.prototype.restValues = function () {
+    var values = {};
+    for (var i = 0; i < this.parameters.length; i++) {
+      var p = this.parameters[i];
+      values[p.name] = typeof p.rest === "number" ? p.rest : p.default;
+    }
+    return values;
+  };
+
   Model.prototype.amounts = function (values) {
     var out = new Array(this.amountFns.length);
     for (var i = 0; i < this.amountFns.length; i++) out[i] = this.amountFns[i](values);

@@ -189,8 +189,8 @@
       input.type = "range";
       input.min = String(p.lo);
       input.max = String(p.hi);
-      input.step = p.hi > p.lo ? String((p.hi - p.lo) / 1000) : "any";
-      input.value = String(p.default);
+      input.step = "any";  // typed and dragged values are kept exactly; keys move 1% (below)
+      input.value = String(state.values[p.name]);
       input.id = "slider-" + p.name;
       input.setAttribute("aria-label", p.name);
       input.dataset.parameter = p.name;
@@ -202,6 +202,22 @@
       range.textContent = "[" + format(p.lo) + ", " + format(p.hi) + "]";
       input.addEventListener("input", function () {
         state.values[p.name] = parseFloat(input.value);
+        update();
+      });
+      input.addEventListener("keydown", function (e) {
+        // Arrow keys move 1% of the range, Page Up / Down 10%, Home / End to the ends.
+        var span = p.hi - p.lo, value = parseFloat(input.value), steps = {
+          ArrowRight: 0.01, ArrowUp: 0.01, ArrowLeft: -0.01, ArrowDown: -0.01, PageUp: 0.1, PageDown: -0.1
+        };
+        if (e.key in steps) value += steps[e.key] * span;
+        else if (e.key === "Home") value = p.lo;
+        else if (e.key === "End") value = p.hi;
+        else return;
+        e.preventDefault();
+        if (!(span > 0)) return;
+        value = Math.min(p.hi, Math.max(p.lo, Math.round((value - p.lo) / span * 100) / 100 * span + p.lo));
+        input.value = String(value);
+        state.values[p.name] = value;
         update();
       });
       row.appendChild(label); row.appendChild(input); row.appendChild(output); row.appendChild(range);
@@ -320,7 +336,7 @@
   function start(scene) {
     var model = new ParselEval.Model(scene, window.PARSEL_AMOUNTS || [], window.PARSEL_POINT_MAPS || {});
     state.model = model;
-    state.values = model.defaults();
+    state.values = model.restValues();
     document.title = "parsel: " + scene.title;
     byId("title").textContent = scene.title;
     var meta = scene.metadata || {};

@@ -38,6 +38,8 @@ from parsel_core.program import Evaluation, Program
 from parsel_core.report import RelationReport
 
 ShapeLike = ShapeGraph | str | Path
+#: The most requests (proxydural sliders, variants) one call asks for: each is a full edit.
+MAX_REQUESTS = 20
 ProgramLike = Program | str | Path
 
 __all__ = [
@@ -295,6 +297,11 @@ def solve_request(shape: ShapeGraph, text: str, records: list[dict[str, Any]], *
     return result.program, list(result.rejected), list(inference.breaks)
 
 
+def _check_count(count: int) -> None:
+    if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_REQUESTS:
+        raise ParselError(f"the number of requests must be an integer from 1 to {MAX_REQUESTS}, got {count!r}")
+
+
 @dataclass
 class ProxyduralResult:
     """A proxydural model: one stacked program with a slider per request (``used``),
@@ -323,6 +330,7 @@ def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", m
     from parsel_core.language import InferenceError, proxydural_requests
     from parsel_core.report import check_each_parameter, check_program
 
+    _check_count(count)
     graph = as_shape(shape)
     with provider_name(provider) as name:
         proposal = proxydural_requests(graph, count=count, provider=name, model=model)
@@ -397,6 +405,7 @@ def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any 
     from parsel_core.language import InferenceError, variation_requests
     from parsel_core.report import check_program
 
+    _check_count(count)
     graph = as_shape(shape)
     variants: list[Variant] = []
     with provider_name(provider) as name:

@@ -5,12 +5,27 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from parsel_core import __version__
 from parsel_core.errors import ParselError
 from parsel_core.io import write_all, write_outdir  # noqa: F401 - write_all: the commands' old home
+
+
+def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer in [lo, hi], else a one-line ``ParselError`` naming the option."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < lo or (hi is not None and value > hi):
+            bound = f"from {lo} to {hi}" if hi is not None else f">= {lo}"
+            raise ParselError(f"{option} must be an integer {bound}, got {text!r}")
+        return value
+
+    return parse
 
 
 def _add_backend(parser: argparse.ArgumentParser) -> None:
@@ -261,6 +276,13 @@ def cmd_edit(args: argparse.Namespace) -> int:
     write_outdir(args.output, result.files())
     program, report = result.program, result.report
     counts = report.counts()
+    if args.json:
+        print(json.dumps({"output": args.output, "files": sorted(result.files()), "ops": len(program.ops),
+                          "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi} for p in program.parameters],
+                          "relations": counts, "broken": [s.id for s in report.relations if s.state == "broken"],
+                          "rejected": result.rejected, "accounting": result.accounting,
+                          "timings": result.timings}, indent=1))
+        return 0
     print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
           f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
     for state in report.relations:
@@ -276,6 +298,10 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     result = api.proxydural(args.shape, args.count, **_language_options(args))
     write_outdir(args.output, result.files())
     counts = result.report.counts()
+    if args.json:
+        print(json.dumps({"output": args.output, "sliders": result.used, "skipped": result.skipped,
+                          "relations": counts, "per_slider": result.per_slider}, indent=1))
+        return 0
     print(f"{len(result.used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in result.used)}); "
           f"relations: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} "
           f"broken -> {args.output}")
@@ -291,7 +317,11 @@ def cmd_variations(args: argparse.Namespace) -> int:
     from parsel_core import api
 
     result = api.variations(args.shape, args.request, args.count, **_language_options(args))
-    write_outdir(args.output, result.files())
+    files = result.files()
+    write_outdir(args.output, files)
+    if args.json:
+        print(json.dumps({"output": args.output, **json.loads(files["variations.json"])}, indent=1))
+        return 0
     for i, variant in enumerate(result.variants, start=1):
         if variant.report is not None:
             c = variant.report.counts()
@@ -307,15 +337,16 @@ def cmd_check(args: argparse.Namespace) -> int:
 
     shape = api.as_shape(args.shape)
     report = api.check(shape, args.program, args.break_ or (), samples=args.samples)
+    counts = report.counts()
+    status = 1 if args.strict and counts["broken"] else 0  # --strict: broken relations fail CI
     if args.json:
         print(json.dumps(report.to_dict(), indent=1))
-        return 0
-    counts = report.counts()
+        return status
     print(f"{shape.name}: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, "
           f"{counts['broken']} broken (tolerance {report.tolerance:.2e}, {report.samples} samples)")
     for state in report.relations:
         print(f"  {state.state:<18} {state.id:<36} {state.kind:<12} max error {state.max_error:.2e}")
-    return 0
+    return status
 
 
 def cmd_apply(args: argparse.Namespace) -> int:
@@ -323,7 +354,11 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from parsel_core import api
     from parsel_core.loading import parse_assignments
 
-    for path in api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep):
+    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep)
+    if args.json:
+        print(json.dumps({"written": [str(p) for p in paths], "values": parse_assignments(args.set)}, indent=1))
+        return 0
+    for path in paths:
         print(path)
     return 0
 
@@ -356,6 +391,8 @@ def cmd_new_plugin(args: argparse.Namespace) -> int:
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The command line; ``argv`` (when given) lets it skip plugins the command does not need."""
+    from parsel_core import api
+
     parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.")
     parser.add_argument("--version", action="version", version=f"parsel {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -394,7 +431,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--api-base", help="base URL of an OpenAI-compatible server (litellm)")
     p.add_argument("--mode", default="full", choices=("full", "seed-only", "one-shot"),
                    help="full: seed + hints + validity; seed-only; one-shot: the model writes the program")
-    p.add_argument("--samples", type=int, default=5, help="samples per prompt for majority voting (default 5)")
+    p.add_argument("--samples", type=bounded_int("--samples", 1, 100), default=5,
+                   help="samples per prompt for majority voting (default 5)")
     p.add_argument("--replay", metavar="FILE", help="recorded replies for the replay provider")
     p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
     p.add_argument("--timeout", type=float, metavar="S", help="seconds per model call (litellm; default 60)")
@@ -407,6 +445,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
+    p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
     _add_backend(p)
     p.set_defaults(func=cmd_edit)
 
@@ -418,13 +457,18 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         p.add_argument("shape", help="shape file or example name")
         if name == "variations":
             p.add_argument("request", help="the edit request the variants keep")
-        p.add_argument("-n", "--count", type=int, default=5 if name == "proxydural" else 3)
-        p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
-        p.add_argument("--provider", default="offline")
-        p.add_argument("--model")
-        p.add_argument("--api-base")
-        p.add_argument("--samples", type=int, default=5)
-        p.add_argument("--cache", metavar="DIR")
+        p.add_argument("-n", "--count", type=bounded_int("-n", 1, api.MAX_REQUESTS),
+                       default=5 if name == "proxydural" else 3,
+                       help=f"number of {'requests (sliders)' if name == 'proxydural' else 'variants'}, 1 to "
+                            f"{api.MAX_REQUESTS} (default {5 if name == 'proxydural' else 3})")
+        p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory (written whole)")
+        p.add_argument("--provider", default="offline", help="language-model provider (default: offline)")
+        p.add_argument("--model", help="model name for the provider")
+        p.add_argument("--api-base", help="base URL of an OpenAI-compatible server (litellm)")
+        p.add_argument("--samples", type=bounded_int("--samples", 1, 100), default=5,
+                       help="samples per prompt for majority voting (default 5)")
+        p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
+        p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
         _add_backend(p)
         p.set_defaults(func=func)
 
@@ -432,8 +476,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("shape")
     p.add_argument("program")
     p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID")
-    p.add_argument("--samples", type=int, default=50, help="parameter samples (ends included)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--samples", type=bounded_int("--samples", 2, 100_000), default=50,
+                   help="parameter samples across the range, ends included (default 50)")
+    p.add_argument("--strict", action="store_true", help="exit with status 1 when a relation is broken")
+    p.add_argument("--json", action="store_true", help="the report as JSON (schema: docs/formats.md)")
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("apply", help="export the edited shape at parameter values")
@@ -442,6 +488,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="NAME=VALUE")
     p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
     p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter")
+    p.add_argument("--json", action="store_true", help="print the written paths as JSON")
     p.set_defaults(func=cmd_apply)
 
     p = sub.add_parser("inspect", help="list a shape's parts and relations")

@@ -1,0 +1,77 @@
+"""Exit statuses, numeric option checks and --json output of the core verbs."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from parsel_core.cli import main
+from parsel_core.examples import tiny_table
+from parsel_core.plugins import llm_providers
+
+from .test_cli import PROGRAM, one_line_error
+
+#: A seed that widens the table top.
+TOP_ONLY = "param x in [0, 0.5]\nscale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)\n"
+
+
+@pytest.fixture
+def files(tmp_path):
+    program = tmp_path / "widen.parsel"
+    program.write_text(PROGRAM)
+    shape = tmp_path / "table.shape.json"
+    shape.write_text(json.dumps(tiny_table().to_dict()))
+    return tmp_path, program, shape
+
+
+def test_check_strict_fails_on_broken_relations_only(files, capsys, tmp_path):
+    _, program, shape = files  # the top widens alone: the legs and rails no longer meet it
+    assert main(["check", str(shape), str(program)]) == 0  # without --strict: a report, status 0
+    out = capsys.readouterr().out
+    broken = int(out.split(" broken on purpose, ")[1].split(" broken")[0])
+    assert broken > 0
+    assert main(["check", str(shape), str(program), "--strict"]) == 1
+    capsys.readouterr()
+    assert main(["check", str(shape), str(program), "--strict", "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["counts"]["broken"] == broken
+    # the same seed propagated by AEP keeps everything, and passes --strict
+    assert main(["edit", str(shape), "--seed", TOP_ONLY.splitlines()[1], "-o", str(tmp_path / "kept")]) == 0
+    assert main(["check", str(shape), str(tmp_path / "kept" / "program.json"), "--strict"]) == 0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["check", "tiny_table", "PROGRAM", "--samples", "0"], "--samples must be an integer from 2 to 100000, got '0'"),
+    (["check", "tiny_table", "PROGRAM", "--samples", "-3"], "--samples must be an integer from 2 to 100000, got '-3'"),
+    (["check", "tiny_table", "PROGRAM", "--samples", "many"], "--samples must be an integer from 2 to 100000"),
+    (["edit", "tiny_table", "wider", "--samples", "0", "-o", "OUT"], "--samples must be an integer from 1 to 100"),
+    (["proxydural", "tiny_table", "-n", "0", "-o", "OUT"], "-n must be an integer from 1 to 20, got '0'"),
+    (["proxydural", "tiny_table", "-n", "99", "-o", "OUT"], "-n must be an integer from 1 to 20, got '99'"),
+    (["variations", "tiny_table", "wider", "-n", "0", "-o", "OUT"], "-n must be an integer from 1 to 20, got '0'"),
+])
+def test_numeric_options_are_checked_in_one_line(files, capsys, tmp_path, argv, message):
+    _, program, _ = files
+    argv = [str(program) if a == "PROGRAM" else str(tmp_path / "out") if a == "OUT" else a for a in argv]
+    one_line_error(capsys, argv, message)
+    assert not (tmp_path / "out").exists()
+
+
+def test_edit_and_apply_json(files, capsys, tmp_path):
+    _, program, shape = files
+    assert main(["edit", str(shape), "--seed", TOP_ONLY.splitlines()[1], "-o", str(tmp_path / "e"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["output"] == str(tmp_path / "e") and summary["files"] == ["program.json", "report.json"]
+    assert summary["relations"]["broken"] == 0 and summary["ops"] >= 5  # the legs and rails follow the top
+    assert summary["parameters"][0]["name"] == "x" and set(summary["timings"]) == {"load_s", "solve_s", "check_s"}
+    assert main(["apply", str(shape), str(program), "--set", "x=0.3", "-o", str(tmp_path / "t.obj"), "--json"]) == 0
+    written = json.loads(capsys.readouterr().out)
+    assert written == {"written": [str(tmp_path / "t.obj")], "values": {"x": 0.3}}
+    assert (tmp_path / "t.obj").stat().st_size > 0
+
+
+@pytest.mark.skipif("offline" not in llm_providers(), reason="needs the offline provider (parsel-offline)")
+def test_proxydural_json(capsys, tmp_path):
+    assert main(["proxydural", "tiny_table", "-n", "2", "-o", str(tmp_path / "p"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert [s["parameter"] for s in summary["sliders"]] == ["x1", "x2"][: len(summary["sliders"])]
+    assert set(summary["per_slider"]) == {s["parameter"] for s in summary["sliders"]}

@@ -393,7 +393,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The command line; ``argv`` (when given) lets it skip plugins the command does not need."""
     from parsel_core import api
 
-    parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.")
+    parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.",
+                                     epilog='example: parsel edit chair "make the chair wider" -o out/ && '
+                                            'parsel view out/')
     parser.add_argument("--version", action="version", version=f"parsel {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
@@ -417,7 +419,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     _add_backend(p)
     p.set_defaults(func=cmd_evaluate)
 
-    p = sub.add_parser("edit", help="expert mode: propagate a seed edit into a complete program")
+    p = sub.add_parser("edit", help="a request in words (or an expert seed edit) -> a complete editing program")
     p.add_argument("shape", help="shape file or example name")
     p.add_argument("request", nargs="?", help="an edit request in words (needs a language-model provider)")
     p.add_argument("--seed", metavar="OP", help='seed op(s) in the program text form, e.g. '
@@ -473,9 +475,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         p.set_defaults(func=func)
 
     p = sub.add_parser("check", help="the relation report of a program on a shape")
-    p.add_argument("shape")
-    p.add_argument("program")
-    p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("program", help="program file (.json or text form)")
+    p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID",
+                   help="a relation the program breaks on purpose (repeatable)")
     p.add_argument("--samples", type=bounded_int("--samples", 2, 100_000), default=50,
                    help="parameter samples across the range, ends included (default 50)")
     p.add_argument("--strict", action="store_true", help="exit with status 1 when a relation is broken")
@@ -483,9 +486,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("apply", help="export the edited shape at parameter values")
-    p.add_argument("shape")
-    p.add_argument("program")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("program", help="program file (.json or text form)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter value (repeatable; default: "
+                   "the parameter's default)")
     p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
     p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter")
     p.add_argument("--json", action="store_true", help="print the written paths as JSON")
@@ -506,11 +510,14 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_new_plugin)
 
     p = sub.add_parser("convert", help="convert a program between JSON (.json) and text form")
-    p.add_argument("program")
+    p.add_argument("program", help="program file (.json or text form)")
     p.add_argument("output", help="output path; .json for JSON, anything else for text, - for stdout")
     p.set_defaults(func=cmd_convert)
 
     _add_plugin_commands(sub, argv)
+    from parsel_core.cli_help import document
+
+    document(sub)
     return parser
 
 

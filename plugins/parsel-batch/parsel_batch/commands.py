@@ -148,7 +148,7 @@ def register(subparsers: Any) -> None:
                                           "J(prog), D(geo), %Rel and, for language-model outputs, Acc(SE), "
                                           "Acc(R), J(T) and Match per case, then their means. Exit status 1 when a "
                                           "case failed.")
-    p.add_argument("cases", metavar="CASES.jsonl")
+    p.add_argument("cases", metavar="CASES.jsonl", help="one case per line (schema: docs/evaluation.md)")
     p.add_argument("--json", action="store_true", help="machine-readable output (format parsel.eval)")
     p.add_argument("--workers", type=int, default=0, metavar="N",
                    help="local worker processes (default 0: run in this process)")
@@ -162,8 +162,9 @@ def register(subparsers: Any) -> None:
                                           "OUTDIR/<case id>/ and a line of OUTDIR/results.jsonl as each finishes. "
                                           "Interrupted runs resume where they stopped. Exit status 1 when a case "
                                           "failed (its error is in its record).")
-    p.add_argument("cases", metavar="CASES.jsonl")
-    p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
+    p.add_argument("cases", metavar="CASES.jsonl", help="one case per line (schema: docs/evaluation.md)")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR",
+                   help="results folder: OUTDIR/<case id>/ and OUTDIR/results.jsonl")
     p.add_argument("--workers", type=int, metavar="N",
                    help="local worker processes (default: the CPUs available; 0 runs in this process)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")

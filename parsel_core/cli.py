@@ -539,8 +539,15 @@ def _add_plugin_commands(sub, argv: Sequence[str] | None) -> None:
         plugins.get_plugin_manager().hook.parsel_register_commands(subparsers=sub)
 
 
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    return f"parsel: warning: {message}\n"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    import warnings
+
     argv = list(sys.argv[1:] if argv is None else argv)
+    warnings.formatwarning = _one_line_warning  # the command line shows warnings as one line each
     try:
         parser = build_parser(argv)
         args = parser.parse_args(argv)

@@ -8,8 +8,10 @@
 
 from __future__ import annotations
 
+import difflib
 import os
 import tomllib
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +19,26 @@ from parsel_core.errors import ParselError
 
 #: The backend used when nothing is configured: the faster one in benchmarks/bench_cas.py.
 PREFERRED_BACKENDS = ("symengine", "sympy")
+#: The keys of the ``[parsel]`` table parsel reads; any other is warned about once.
+KNOWN_KEYS = ("cas_backend", "relation_tolerance")
+
+
+class ConfigWarning(UserWarning):
+    """A setting parsel does not know (a misspelled key, say): it is ignored."""
+
+
+_warned: set[tuple[str, str]] = set()
+
+
+def _warn_unknown(path: Path, section: dict[str, Any]) -> None:
+    for key in section:
+        if key in KNOWN_KEYS or (str(path), key) in _warned:
+            continue
+        _warned.add((str(path), key))
+        close = difflib.get_close_matches(key, KNOWN_KEYS, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else f" (known: {', '.join(KNOWN_KEYS)})"
+        warnings.warn(f"{path}: [parsel] {key!r} is not a setting parsel reads and is ignored{hint}", ConfigWarning,
+                      stacklevel=3)
 
 
 def config_path() -> Path:
@@ -38,7 +60,15 @@ def load_settings() -> dict[str, Any]:
     section = data.get("parsel", {})
     if not isinstance(section, dict):
         raise ParselError(f"{path}: [parsel] must be a table")
+    _warn_unknown(path, section)
     return section
+
+
+def backend_source() -> str:
+    """Where the configured backend name comes from, for error messages."""
+    if os.environ.get("PARSEL_CAS_BACKEND"):
+        return "$PARSEL_CAS_BACKEND"
+    return f"cas_backend in {config_path()}"
 
 
 def default_backend_name(installed: list[str]) -> str:

@@ -210,13 +210,14 @@ def cas_backend_names() -> list[str]:
 
 def get_cas_backend(name: str | None = None):
     """A CAS backend by name; ``None`` means the configured default."""
-    from parsel_core.config import default_backend_name
+    from parsel_core.config import backend_source, default_backend_name
 
     classes = _by_name(_collect("parsel_cas_backends"), "CAS backend")
+    origin = "" if name else f" (from {backend_source()})"
     name = name or default_backend_name(list(classes))
     if name not in classes:
         known = ", ".join(sorted(classes)) or "none installed"
-        raise UnknownPluginError(f"unknown CAS backend {name!r} (installed: {known})")
+        raise UnknownPluginError(f"unknown CAS backend {name!r}{origin} (installed: {known})")
     return _backend_instance(classes[name])
 
 

@@ -1,0 +1,59 @@
+"""Unknown settings are warned about with the closest known key; a bad backend name says where it came from."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from parsel_core import config
+from parsel_core.errors import ParselError
+from parsel_core.plugins import get_cas_backend
+
+
+def test_a_misspelled_key_is_warned_about_once_with_the_closest_known_key(tmp_path, monkeypatch):
+    path = tmp_path / "parsel.toml"
+    path.write_text('[parsel]\nrelation_tolerence = 0.02\ncolour = "red"\ncas_backend = "sympy"\n')
+    monkeypatch.setenv("PARSEL_CONFIG", str(path))
+    monkeypatch.setattr(config, "_warned", set())
+    with pytest.warns(config.ConfigWarning) as caught:
+        settings = config.load_settings()
+    assert settings["cas_backend"] == "sympy"
+    messages = sorted(str(w.message) for w in caught)
+    assert messages == [
+        f"{path}: [parsel] 'colour' is not a setting parsel reads and is ignored (known: cas_backend, "
+        "relation_tolerance)",
+        f"{path}: [parsel] 'relation_tolerence' is not a setting parsel reads and is ignored; did you mean "
+        "'relation_tolerance'?",
+    ]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        config.load_settings()  # once only
+
+
+def test_the_cli_prints_the_warning_in_one_line(tmp_path):
+    path = tmp_path / "parsel.toml"
+    path.write_text("[parsel]\ncas_backnd = 'sympy'\n")
+    program = tmp_path / "p.parsel"
+    program.write_text("param x in [0, 1]\ntranslate(top, dir=(0, 1, 0), amount=x)\n")
+    done = subprocess.run([sys.executable, "-m", "parsel_core.cli", "evaluate", "tiny_table", str(program)],
+                          capture_output=True, text=True, env={**__import__("os").environ, "PARSEL_CONFIG": str(path)},
+                          timeout=120)
+    assert done.returncode == 0
+    assert done.stderr == (f"parsel: warning: {path}: [parsel] 'cas_backnd' is not a setting parsel reads and is "
+                           "ignored; did you mean 'cas_backend'?\n")
+
+
+def test_a_bad_backend_name_names_its_source(tmp_path, monkeypatch):
+    monkeypatch.setenv("PARSEL_CAS_BACKEND", "sympyy")
+    with pytest.raises(ParselError, match=r"unknown CAS backend 'sympyy' \(from \$PARSEL_CAS_BACKEND\) \(installed: "):
+        get_cas_backend()
+    monkeypatch.delenv("PARSEL_CAS_BACKEND")
+    path = tmp_path / "parsel.toml"
+    path.write_text('[parsel]\ncas_backend = "maxima"\n')
+    monkeypatch.setenv("PARSEL_CONFIG", str(path))
+    with pytest.raises(ParselError, match=rf"'maxima' \(from cas_backend in {path}\)"):
+        get_cas_backend()

@@ -297,6 +297,12 @@ def solve_request(shape: ShapeGraph, text: str, records: list[dict[str, Any]], *
     return result.program, list(result.rejected), list(inference.breaks)
 
 
+def _progress(total: int, desc: str, enabled: bool) -> Any:
+    from parsel_core.progress import progress
+
+    return progress(total, desc, enabled=enabled)
+
+
 def _check_count(count: int) -> None:
     if isinstance(count, bool) or not isinstance(count, int) or not 1 <= count <= MAX_REQUESTS:
         raise ParselError(f"the number of requests must be an integer from 1 to {MAX_REQUESTS}, got {count!r}")
@@ -323,8 +329,8 @@ class ProxyduralResult:
 
 def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", model: str | None = None,
                samples: int = 5, backend: str | None = None, api_base: str | None = None,
-               cache_dir: str | Path | None = None,
-               provider_options: Mapping[str, Any] | None = None) -> ProxyduralResult:
+               cache_dir: str | Path | None = None, provider_options: Mapping[str, Any] | None = None,
+               progress: bool = False) -> ProxyduralResult:
     """Proxydural modelling (paper 8.1): ``count`` requests proposed for the shape, one
     program each, stacked with one slider each (``parsel proxydural``)."""
     from parsel_core.language import InferenceError, proxydural_requests
@@ -336,7 +342,9 @@ def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", m
         proposal = proxydural_requests(graph, count=count, provider=name, model=model)
         records = list(proposal.record)
         composed, used, skipped, breaks = None, [], [], set()
+        bar = _progress(len(proposal.requests), "requests", progress)
         for i, text in enumerate(proposal.requests, start=1):
+            bar.update(1)
             try:
                 program, _, request_breaks = solve_request(
                     graph, text, records, provider=name, model=model, samples=samples, backend=backend,
@@ -348,6 +356,7 @@ def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", m
             composed = program if composed is None else composed.then(program)
             used.append({"request": text, "parameter": f"x{i}"})
             breaks.update(request_breaks)
+        bar.close()
     if composed is None:
         raise ParselError(f"none of the {len(proposal.requests)} proposed requests could be turned into a program")
     composed = type(composed)(composed.ops, composed.parameters, {
@@ -398,8 +407,8 @@ class VariationsResult:
 
 def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any = "offline",
                model: str | None = None, samples: int = 5, backend: str | None = None, api_base: str | None = None,
-               cache_dir: str | Path | None = None,
-               provider_options: Mapping[str, Any] | None = None) -> VariationsResult:
+               cache_dir: str | Path | None = None, provider_options: Mapping[str, Any] | None = None,
+               progress: bool = False) -> VariationsResult:
     """Shape variation families (paper 8.2): ``count`` variants of ``request``, one program
     each (``parsel variations``)."""
     from parsel_core.language import InferenceError, variation_requests
@@ -411,7 +420,9 @@ def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any 
     with provider_name(provider) as name:
         proposal = variation_requests(graph, request, count=count, provider=name, model=model)
         records = list(proposal.record)
+        bar = _progress(len(proposal.requests), "variants", progress)
         for text in proposal.requests:
+            bar.update(1)
             try:
                 program, _, request_breaks = solve_request(
                     graph, text, records, provider=name, model=model, samples=samples, backend=backend,
@@ -423,6 +434,7 @@ def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any 
                 "solver": "aep", "shape": graph.name, "application": "variations", "request": text,
                 "family": request})
             variants.append(Variant(text, program, check_program(graph, program, request_breaks)))
+        bar.close()
     if not any(v.program is not None for v in variants):
         raise ParselError(f"none of the variants of {request!r} could be turned into a program")
     return VariationsResult(graph, request, variants, records)

@@ -295,7 +295,7 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     """Proxydural modelling (paper 8.1): N requests, one program each, stacked with N sliders."""
     from parsel_core import api
 
-    result = api.proxydural(args.shape, args.count, **_language_options(args))
+    result = api.proxydural(args.shape, args.count, progress=not args.quiet, **_language_options(args))
     write_outdir(args.output, result.files())
     counts = result.report.counts()
     if args.json:
@@ -316,7 +316,8 @@ def cmd_variations(args: argparse.Namespace) -> int:
     """Shape variation families (paper 8.2): variants of one request, one program each."""
     from parsel_core import api
 
-    result = api.variations(args.shape, args.request, args.count, **_language_options(args))
+    result = api.variations(args.shape, args.request, args.count, progress=not args.quiet,
+                            **_language_options(args))
     files = result.files()
     write_outdir(args.output, files)
     if args.json:
@@ -471,6 +472,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                        help="samples per prompt for majority voting (default 5)")
         p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
         p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
+        p.add_argument("--quiet", action="store_true", help="no progress on stderr")
         _add_backend(p)
         p.set_defaults(func=func)
 

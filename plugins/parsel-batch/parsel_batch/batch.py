@@ -22,7 +22,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import sys
 import tempfile
 import uuid
 from collections import deque
@@ -337,42 +336,11 @@ def run_dask(cases: Sequence[Case], defaults: RunDefaults, address: str) -> Iter
 # -- progress -----------------------------------------------------------------------------
 
 
-class SimpleProgress:
-    """A progress line on stderr for when tqdm is not installed."""
-
-    def __init__(self, total: int, stream: TextIO) -> None:
-        self.total, self.count, self.stream = total, 0, stream
-        self.tty = stream.isatty()
-        self.step = max(1, total // 20)
-        self.postfix = ""
-
-    def update(self, n: int = 1) -> None:
-        self.count += n
-        if self.tty or self.count % self.step == 0 or self.count == self.total:
-            end = "" if self.tty else "\n"
-            prefix = "\r" if self.tty else ""
-            self.stream.write(f"{prefix}cases: {self.count}/{self.total} {self.postfix}{end}")
-            self.stream.flush()
-
-    def set_postfix_str(self, text: str) -> None:
-        self.postfix = text
-
-    def close(self) -> None:
-        if self.tty:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 def progress_bar(total: int, enabled: bool, stream: TextIO | None = None) -> Any:
-    """tqdm when installed, else :class:`SimpleProgress`; ``None`` when disabled."""
-    if not enabled or total == 0:
-        return None
-    stream = stream or sys.stderr
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return SimpleProgress(total, stream)
-    return tqdm(total=total, unit="case", desc="cases", file=stream, dynamic_ncols=True)
+    """The core's progress display (parsel_core.progress): a bar on a terminal, lines elsewhere."""
+    from parsel_core.progress import progress
+
+    return progress(total, "cases", unit="case", enabled=enabled, stream=stream)
 
 
 # -- the batch ----------------------------------------------------------------------------
@@ -419,12 +387,10 @@ def run_batch(cases: Sequence[Case], outdir: str | Path, *, workers: int = 0, da
             failed_now += not outcome.ok
             if on_outcome is not None:
                 on_outcome(outcome)
-            if bar is not None:
-                bar.set_postfix_str(f"failed {failed_now}" if failed_now else "")
-                bar.update(1)
+            bar.set_postfix_str(f"failed {failed_now}" if failed_now else "")
+            bar.update(1)
     finally:
-        if bar is not None:
-            bar.close()
+        bar.close()
     records = [out.done[c.id] for c in cases if c.id in out.done]
     return BatchSummary(len(cases), len(todo), skipped, failed_now, records)
 

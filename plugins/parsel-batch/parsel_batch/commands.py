@@ -101,8 +101,16 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.results:
         records = ordered(read_results(args.results), cases)
     else:
+        from parsel_batch.batch import progress_bar
+
         defaults = RunDefaults(backend=args.backend)
-        records = ordered((o.record for o in run_cases(cases, defaults, args.workers)), cases)
+        bar = progress_bar(len(cases), not args.quiet)
+        done = []
+        for outcome in run_cases(cases, defaults, args.workers):
+            done.append(outcome.record)
+            bar.update(1)
+        bar.close()
+        records = ordered(done, cases)
     summary = summary_data(records, cases)
     if args.json:
         print(json.dumps({"format": EVAL_FORMAT, "version": EVAL_VERSION, "cases": records, "summary": summary},
@@ -155,6 +163,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--results", metavar="OUTDIR",
                    help="do not run: score the records a `parsel batch` run wrote to OUTDIR")
     p.add_argument("--backend", metavar="NAME", help="CAS backend for cases that do not choose one")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_eval)
 
     p = subparsers.add_parser("batch", help="run many cases, resumably, on local processes or a Dask cluster",

@@ -137,6 +137,13 @@ def cmd_batch(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_INTERRUPTED
     where = f"dask {args.dask}" if args.dask else f"{workers} worker process(es)" if workers else "this process"
+    if args.json:
+        print(json.dumps({"output": args.output, "cases": summary.total, "ran": summary.ran,
+                          "failed": summary.failed, "failed_now": summary.failed_now, "skipped": summary.skipped,
+                          "where": where, "summary": summary_data(summary.records, cases),
+                          "failures": [{"id": r["id"], **(r.get("error") or {})} for r in summary.records
+                                       if r.get("status") != "ok"]}, indent=1))
+        return EXIT_FAILED_CASES if summary.failed else 0
     print(f"{summary.total} cases: {summary.ran} run on {where} ({summary.failed_now} failed), "
           f"{summary.skipped} already done -> {args.output}")
     means = means_line(summarise(r.get("metrics") for r in summary.records if r.get("status") == "ok"))
@@ -179,5 +186,6 @@ def register(subparsers: Any) -> None:
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
     p.add_argument("--retry-failed", action="store_true", help="run failed cases again instead of skipping them")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--json", action="store_true", help="print the run's summary as JSON")
     p.add_argument("--backend", metavar="NAME", help="CAS backend for cases that do not choose one")
     p.set_defaults(func=cmd_batch)

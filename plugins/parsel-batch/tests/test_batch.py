@@ -205,3 +205,15 @@ def test_bad_cases_file_is_exit_status_2(tmp_path, capsys):
     assert main(["batch", str(path), "-o", str(tmp_path / "out")]) == 2
     assert "cases.jsonl:1" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_batch_json_summary(tmp_path, capsys):
+    bad = {"id": "bad", "shape": "tiny_table", "seed": "translate(nope, amount=x)"}
+    path = cases_file(tmp_path, SEEDS[:1], [bad])
+    assert main(["batch", str(path), "-o", str(tmp_path / "out"), "--workers", "0", "--json"]) == 1
+    captured = capsys.readouterr()
+    data = json.loads(captured.out)
+    assert (data["cases"], data["ran"], data["failed"], data["skipped"]) == (2, 2, 1, 0)
+    assert data["failures"][0]["id"] == "bad" and data["failures"][0]["type"] == "UnknownPartError"
+    assert data["summary"]["ok"] == 1 and data["where"] == "this process"
+    assert "\r" not in captured.err and captured.err.splitlines()[-1].startswith("cases: 2/2")  # lines, not a bar

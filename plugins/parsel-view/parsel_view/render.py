@@ -104,8 +104,15 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     fixed = program.values(values)
     swept = program.parameter(parameter) if parameter else program.parameters[0]
     xs = np.linspace(swept.lo, swept.hi, frames) if frames > 1 else np.array([fixed[swept.name]])
-    geometries = [frame_geometry(shape, evaluate(program, shape, {**fixed, swept.name: float(x)}), remesh,
-                                 remesh_options) for x in xs]
+    from parsel_core.progress import progress
+
+    bar = progress(len(xs), "frames", enabled=remesh)  # remeshing takes seconds per frame
+    geometries = []
+    for x in xs:
+        geometries.append(frame_geometry(shape, evaluate(program, shape, {**fixed, swept.name: float(x)}), remesh,
+                                         remesh_options))
+        bar.update(1)
+    bar.close()
 
     import matplotlib
 

@@ -132,7 +132,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     if status:
         return status
     program = load_program(output / "program.json")
-    print("\nprogram:\n  " + program.to_text().strip().replace("\n", "\n  "))
+    from parsel_core.textform import display_text
+
+    print("\nprogram:\n  " + display_text(program.to_text()).strip().replace("\n", "\n  "))
     parameter = program.parameters[0]
     edited = [pid for pid in dict.fromkeys(op.operand for op in program.ops) if pid in shape.parts][:3]
     for value in np.linspace(parameter.lo, parameter.hi, 3):

@@ -189,3 +189,44 @@ def seed_from_text(text: str, source: str = "--seed"):
     if not lines:
         raise ProgramFormatError(f"{source}: the seed is empty")
     return program_from_text("\n".join(lines), source=source)
+
+
+def short_number(value: float, digits: int = 12, tolerance: float = 1e-7) -> str:
+    """The shortest decimal (at most ``digits`` significant digits) within ``tolerance``
+    (relative, absolute below 1; 1e-7 is float32 rounding, the precision of mesh files) of
+    ``value``: float noise such as 0.4299999922513962 (a float32 0.43) or 0.999999999999
+    reads 0.43 and 1."""
+    bound = tolerance * max(1.0, abs(value))
+    for precision in range(1, digits + 1):
+        text = format(value, f".{precision}g")
+        if abs(float(text) - value) <= bound:
+            return text
+    return format(value, f".{digits}g")
+
+
+def display_text(text: str, digits: int = 12) -> str:
+    """Program text with every number shortened by :func:`short_number`, for people to read
+    (pages, summaries); files keep the full-precision form. Quoted names are left alone."""
+    import io
+    import tokenize
+
+    out_lines = []
+    for line in text.splitlines(keepends=True):
+        try:
+            tokens = list(tokenize.generate_tokens(io.StringIO(line).readline))
+        except (tokenize.TokenError, IndentationError, SyntaxError):
+            out_lines.append(line)
+            continue
+        pieces, column = [], 0
+        for token in tokens:
+            if token.type == tokenize.NUMBER and token.start[0] == 1:
+                start, end = token.start[1], token.end[1]
+                pieces.append(line[column:start])
+                try:
+                    pieces.append(short_number(float(token.string), digits))
+                except ValueError:
+                    pieces.append(token.string)
+                column = end
+        pieces.append(line[column:])
+        out_lines.append("".join(pieces))
+    return "".join(out_lines)

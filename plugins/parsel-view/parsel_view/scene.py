@@ -39,6 +39,7 @@ from parsel_core.ops import (
     Translate,
 )
 from parsel_core.program import Program, top_down_groups
+from parsel_core.textform import display_text
 from parsel_core.relations import RotationSymmetry, TranslationSymmetry
 from parsel_view.jsexpr import amounts_script
 
@@ -223,7 +224,7 @@ def build_page_data(program: Program, shape: ShapeGraph, title: str | None = Non
         "shape": shape.name,
         "title": title or f"{shape.name}: {len(program.ops)} ops, {len(program.parameters)} parameter(s)",
         "metadata": info,
-        "program_text": program.to_text(),
+        "program_text": display_text(program.to_text()),
         "bounds": [corners.min(axis=0).tolist(), corners.max(axis=0).tolist()],
         "meshes": mesh_data(shape),
         **data,

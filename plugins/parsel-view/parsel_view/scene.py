@@ -39,8 +39,8 @@ from parsel_core.ops import (
     Translate,
 )
 from parsel_core.program import Program, top_down_groups
-from parsel_core.textform import display_text
 from parsel_core.relations import RotationSymmetry, TranslationSymmetry
+from parsel_core.textform import display_text
 from parsel_view.jsexpr import amounts_script
 
 SCENE_FORMAT = "parsel.view"

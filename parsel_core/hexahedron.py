@@ -104,13 +104,15 @@ def corner_jacobians(corners: np.ndarray) -> np.ndarray:
 
     At corner k the derivatives along u, v, w are the three edges leaving it, each taken
     from its low to its high end. A right-handed box gives 8 positive values (its volume);
-    a corner pushed past its neighbours, or a mirrored frame, turns some negative.
+    a corner pushed past its neighbours, or a mirrored frame, turns some negative. The
+    NaN corners of a removed group member give NaN, without a numpy warning.
     """
     corners = np.asarray(corners, dtype=float)
     out = []
-    for k in range(8):
-        edges = [corners[..., k | bit, :] - corners[..., k & ~bit, :] for bit in (4, 2, 1)]
-        out.append(np.linalg.det(np.stack(edges, axis=-2)))
+    with np.errstate(invalid="ignore"):
+        for k in range(8):
+            edges = [corners[..., k | bit, :] - corners[..., k & ~bit, :] for bit in (4, 2, 1)]
+            out.append(np.linalg.det(np.stack(edges, axis=-2)))
     return np.stack(out, axis=-1)
 
 

@@ -75,3 +75,28 @@ def test_proxydural_json(capsys, tmp_path):
     summary = json.loads(capsys.readouterr().out)
     assert [s["parameter"] for s in summary["sliders"]] == ["x1", "x2"][: len(summary["sliders"])]
     assert set(summary["per_slider"]) == {s["parameter"] for s in summary["sliders"]}
+
+
+@pytest.mark.skipif("offline" not in llm_providers(), reason="needs the offline provider (parsel-offline)")
+def test_removing_a_slat_leaks_no_numpy_warning(tmp_path):
+    """The removed slat's corners are NaN; its Jacobians are NaN too, quietly."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-m", "parsel_core.cli", "edit", "chair",
+                           "remove a slat", "-o", str(tmp_path / "out")], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert "Warning" not in done.stderr and "warning" not in done.stderr
+
+
+def test_corner_jacobians_of_nan_corners_are_nan_without_a_warning():
+    import warnings
+
+    import numpy as np
+
+    from parsel_core.hexahedron import corner_jacobians
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isnan(corner_jacobians(np.full((8, 3), np.nan))).all()

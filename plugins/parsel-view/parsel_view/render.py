@@ -82,6 +82,10 @@ def _shaded(colours: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.clip(colours[:, :3] * light[:, None], 0, 1)
 
 
+#: How much each frame's 3D box is enlarged so the model fills its cell (matplotlib pads 3D axes).
+FRAME_ZOOM = 1.45
+
+
 def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames: int = 5,
                    parameter: str | None = None, values: Mapping[str, float] | None = None, remesh: bool = False,
                    remesh_options: Mapping[str, Any] | None = None, dpi: int = 110) -> Path:
@@ -128,9 +132,12 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     points = points[np.all(np.isfinite(points), axis=1)]
     lo, hi = points.min(axis=0), points.max(axis=0)
     mid, radius = (lo + hi) / 2, float((hi - lo).max()) / 2 or 1.0
-    figure = plt.figure(figsize=(2.6 * frames + 0.4, 3.4), dpi=dpi)
+    # Frames side by side with no gaps, each 3D box zoomed to fill its cell; the title sits
+    # in the top-left corner and each frame's value under its model, so nothing collides.
+    figure = plt.figure(figsize=(2.6 * frames, 3.3), dpi=dpi)
+    width = 1.0 / frames
     for i, (x, geometry) in enumerate(zip(xs, geometries)):
-        ax = figure.add_subplot(1, frames, i + 1, projection="3d")
+        ax = figure.add_axes((i * width, 0.17, width, 0.78), projection="3d")
         rgba = np.array([colours.get(label, (0.6, 0.6, 0.6, 1.0)) for label in geometry.labels]).reshape(-1, 4)
         view = geometry.triangles[..., [0, 2, 1]]  # y up: plot (x, z, y)
         collection = Poly3DCollection(view, facecolors=_shaded(rgba, geometry.triangles), edgecolors="none",
@@ -139,14 +146,14 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
         ax.set_xlim(mid[0] - radius, mid[0] + radius)
         ax.set_ylim(mid[2] - radius, mid[2] + radius)
         ax.set_zlim(mid[1] - radius, mid[1] + radius)
-        ax.set_box_aspect((1, 1, 1))
+        ax.set_box_aspect((1, 1, 1), zoom=FRAME_ZOOM)
         ax.view_init(elev=18, azim=-60)
         ax.set_axis_off()
-        ax.set_title(f"{swept.name} = {x:.3g}", fontsize=9)
+        figure.text((i + 0.5) * width, 0.17, f"{swept.name} = {x:.3g}", ha="center", va="top", fontsize=9)
     handles = [Patch(color=colour, label=label) for label, colour in colours.items()]
     figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8), fontsize=7, frameon=False)
-    figure.suptitle(f"{shape.name}{' (watertight remesh)' if remesh else ''}", fontsize=10)
-    figure.subplots_adjust(left=0, right=1, top=0.88, bottom=0.1, wspace=0)
+    figure.text(0.006, 0.985, f"{shape.name}{' (watertight remesh)' if remesh else ''}", ha="left", va="top",
+                fontsize=10)
     buffer = io.BytesIO()
     figure.savefig(buffer, format=fmt)
     plt.close(figure)

@@ -72,3 +72,22 @@ def test_a_program_without_parameters_has_no_filmstrip(chair, tmp_path):
     with pytest.raises(ParselError, match="no parameter to draw a filmstrip across"):
         draw_filmstrip(chair, program, tmp_path / "strip.png")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_frames_fill_their_cells_and_labels_do_not_collide(chair, tmp_path):
+    """Each of the 5 frames spans at least half of its fifth of the picture; the title sits alone in the top-left."""
+    from matplotlib import image
+
+    program = Program.from_text("param x in [0, 1]\nscale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)")
+    path = draw_filmstrip(chair, program, tmp_path / "strip.png", frames=5)
+    pixels = image.imread(str(path))[..., :3]
+    height, width = pixels.shape[:2]
+    ink = np.any(pixels < 0.9, axis=-1)
+    cell = width // 5
+    model_rows = slice(int(0.06 * height), int(0.8 * height))  # below the title, above the labels and legend
+    for i in range(5):
+        columns = np.flatnonzero(ink[model_rows, i * cell:(i + 1) * cell].any(axis=0))
+        assert columns[-1] - columns[0] >= 0.5 * cell, f"frame {i} spans {columns[-1] - columns[0]} of {cell} px"
+    title_rows = np.flatnonzero(ink[: int(0.06 * height), :].any(axis=1))
+    title_columns = np.flatnonzero(ink[: int(0.06 * height), :].any(axis=0))
+    assert len(title_rows) and title_columns[-1] < 0.1 * width  # only the title, at the left

@@ -11,7 +11,22 @@ import numpy as np
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.io import atomic_write_bytes
-from parsel_core.relations import Attachment, GroundContact, ReflectionSymmetry
+from parsel_core.relations import (
+    Attachment,
+    GroundContact,
+    ReflectionSymmetry,
+    RotationSymmetry,
+    TranslationSymmetry,
+)
+
+#: How each relation kind is marked: (colour, marker or None, line style or None, legend label).
+RELATION_MARKS = {
+    "attachment": ("red", "o", None, "attachment"),
+    "ground": ("black", "s", None, "ground contact"),
+    "reflection": ("grey", None, "--", "reflection pair"),
+    "translation": ("tab:purple", "D", ":", "translation group"),
+    "rotation": ("tab:brown", "D", ":", "rotation group"),
+}
 
 # The 12 edges of a hexahedron in canonical corner order: corners differing in one bit.
 HEX_EDGES = tuple((k, k ^ bit) for k in range(8) for bit in (4, 2, 1) if k < k ^ bit)
@@ -25,8 +40,17 @@ def label_colours(labels) -> dict[str, tuple]:
     return {label: palette(i % 20) for i, label in enumerate(sorted(set(labels)))}
 
 
+def relation_mark(relation) -> str | None:
+    """The key of :data:`RELATION_MARKS` a relation is drawn with (None: not drawn)."""
+    for cls, kind in ((Attachment, "attachment"), (GroundContact, "ground"), (ReflectionSymmetry, "reflection"),
+                      (TranslationSymmetry, "translation"), (RotationSymmetry, "rotation")):
+        if isinstance(relation, cls):
+            return kind
+    return None
+
+
 def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None = None,
-               relations: bool = True, title: str | None = None) -> None:
+               relations: bool = True, title: str | None = None, zoom: float = 1.0) -> None:
     """Draw every real part's hexahedron on a 3D axis; y is drawn upwards."""
     corners = shape.rest_corners() if corners is None else corners
     colours = label_colours(p.label for p in shape.parts.values())
@@ -41,21 +65,27 @@ def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None =
             ax.plot(*view(c[[a, b]]), color=colours[part.label], linewidth=1.2)
     if relations:
         for relation in shape.relations.values():
+            kind = relation_mark(relation)
+            if kind is None:
+                continue
+            colour = RELATION_MARKS[kind][0]
             if isinstance(relation, Attachment):
-                ax.scatter(*view(relation.points(corners)), color="red", s=8, depthshade=False)
+                ax.scatter(*view(relation.points(corners)), color=colour, s=8, depthshade=False)
             elif isinstance(relation, GroundContact):
                 points = np.asarray(relation.weights) @ np.asarray(corners[relation.members[0]])
-                ax.scatter(*view(points), color="black", s=6, marker="s", depthshade=False)
-            elif isinstance(relation, ReflectionSymmetry):
+                ax.scatter(*view(points), color=colour, s=6, marker="s", depthshade=False)
+            else:
                 centres = np.array([np.asarray(corners[m]).mean(axis=0) for m in relation.members])
-                ax.plot(*view(centres), color="grey", linestyle="--", linewidth=0.8)
+                ax.plot(*view(centres), color=colour, linestyle=RELATION_MARKS[kind][2], linewidth=0.9)
+                if kind != "reflection":  # groups: a mark at each member's centre
+                    ax.scatter(*view(centres), color=colour, s=10, marker="D", depthshade=False)
     everything = np.concatenate([np.asarray(corners[p]) for p in shape.parts])
     lo, hi = everything.min(axis=0), everything.max(axis=0)
     mid, radius = (lo + hi) / 2, (hi - lo).max() / 2 or 1.0
     ax.set_xlim(mid[0] - radius, mid[0] + radius)
     ax.set_ylim(mid[2] - radius, mid[2] + radius)
     ax.set_zlim(mid[1] - radius, mid[1] + radius)
-    ax.set_box_aspect((1, 1, 1))
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
     ax.view_init(elev=20, azim=-60)
     ax.set_axis_off()
     if title:
@@ -87,13 +117,17 @@ def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np
     from matplotlib.lines import Line2D
 
     figure = plt.figure(figsize=(6, 6), dpi=120)
-    ax = figure.add_subplot(projection="3d")
-    draw_shape(ax, shape, corners, title=f"{shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations")
+    ax = figure.add_axes((0.0, 0.0, 1.0, 0.95), projection="3d")  # the whole picture; matplotlib pads 3D boxes
+    draw_shape(ax, shape, corners, zoom=1.3)
+    figure.text(0.02, 0.98, f"{shape.name}: {len(shape.parts)} parts, {len(shape.relations)} relations",
+                ha="left", va="top", fontsize=9)
     colours = label_colours(p.label for p in shape.parts.values())
     handles = [Line2D([], [], color=c, label=label) for label, c in colours.items()]
-    handles += [Line2D([], [], color="red", marker="o", linestyle="", label="attachment"),
-                Line2D([], [], color="grey", linestyle="--", label="reflection pair")]
-    ax.legend(handles=handles, loc="upper left", fontsize=7, frameon=False)
+    kinds = {relation_mark(r) for r in shape.relations.values()} - {None}
+    for kind, (colour, marker, style, label) in RELATION_MARKS.items():
+        if kind in kinds:  # a legend entry for every kind drawn, and only those
+            handles.append(Line2D([], [], color=colour, marker=marker or "", linestyle=style or "", label=label))
+    figure.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.01, 0.95), fontsize=7, frameon=False)
     buffer = io.BytesIO()
     figure.savefig(buffer, format=fmt)
     plt.close(figure)

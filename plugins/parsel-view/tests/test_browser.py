@@ -185,3 +185,19 @@ def test_the_page_opens_at_rest_and_arrow_keys_move_one_percent(chair, tmp_path)
         expected = deformed_vertices(chair, evaluate(program, chair, {"x": 1.0}))
         np.testing.assert_allclose(page_vertices(page, "seat"), expected["seat"], atol=2e-7)
         assert page.parsel_errors == []
+
+
+def test_on_a_narrow_window_the_panel_sits_below_the_model(chair, tmp_path):
+    program = Program.from_text(CHAIR_PROGRAM)
+    html = write_html(build_page_data(program, chair), tmp_path / "narrow.html")
+    with chromium_page(420, 760) as page:
+        open_page(page, html.as_uri())
+        boxes = page.evaluate("""() => { const r = (id) => document.getElementById(id).getBoundingClientRect();
+            const v = r('view'), p = r('panel'); return {viewBottom: v.bottom, panelTop: p.top, panelBottom: p.bottom,
+            width: window.innerWidth, height: window.innerHeight}; }""")
+        assert boxes["panelTop"] >= boxes["viewBottom"] and boxes["panelBottom"] <= boxes["height"]
+        assert boxes["viewBottom"] >= 0.6 * boxes["height"]  # the model keeps most of the window
+        page.locator("summary").click()  # the program text wraps instead of being clipped
+        assert page.evaluate("(() => { const pre = document.getElementById('program'); "
+                             "return pre.scrollWidth <= pre.clientWidth + 1; })()")
+        assert page.parsel_errors == []

@@ -483,8 +483,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("program", help="program file (.json or text form)")
     p.add_argument("--break", dest="break_", action="append", metavar="RELATION_ID",
                    help="a relation the program breaks on purpose (repeatable)")
-    p.add_argument("--samples", type=bounded_int("--samples", 2, 100_000), default=50,
-                   help="parameter samples across the range, ends included (default 50)")
+    p.add_argument("--steps", dest="samples", type=bounded_int("--steps", 2, 100_000), default=50,
+                   help="parameter values checked across the range, ends included (default 50)")
+    # --samples means model votes elsewhere; the old spelling here still works, unlisted
+    p.add_argument("--samples", dest="samples", type=bounded_int("--samples", 2, 100_000), help=argparse.SUPPRESS)
     p.add_argument("--strict", action="store_true", help="exit with status 1 when a relation is broken")
     p.add_argument("--json", action="store_true", help="the report as JSON (schema: docs/formats.md)")
     p.set_defaults(func=cmd_check)

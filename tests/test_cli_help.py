@@ -26,7 +26,7 @@ def test_help_has_a_description_options_with_help_and_examples(name, capsys):
     assert parser.description and len(parser.description) > 40, f"{name}: no description"
     assert parser.description.split()[0] in text
     for action in parser._actions:
-        if not isinstance(action, argparse._HelpAction):
+        if not isinstance(action, argparse._HelpAction) and action.help != argparse.SUPPRESS:
             assert action.help, f"{name}: {action.option_strings or action.dest} has no help"
     assert "examples:\n  parsel " + name in text, f"{name}: no example"
     # every example parses (a pipe or && starts another command)
@@ -43,3 +43,13 @@ def test_top_level_help_does_not_call_edit_expert_mode(capsys):
         main(["--help"])
     text = capsys.readouterr().out
     assert "edit" in text and "expert mode: propagate" not in text and "example: parsel edit chair" in text
+
+
+def test_a_flag_name_means_one_thing_across_verbs():
+    """--samples is the number of model replies per prompt wherever it is listed (check has --steps)."""
+    meanings = {}
+    for name, parser in verbs().items():
+        for action in parser._actions:
+            if "--samples" in action.option_strings and action.help != argparse.SUPPRESS:
+                meanings[name] = action.help
+    assert meanings and all("majority voting" in text for text in meanings.values()), meanings

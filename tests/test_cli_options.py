@@ -41,9 +41,10 @@ def test_check_strict_fails_on_broken_relations_only(files, capsys, tmp_path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["check", "tiny_table", "PROGRAM", "--samples", "0"], "--samples must be an integer from 2 to 100000, got '0'"),
-    (["check", "tiny_table", "PROGRAM", "--samples", "-3"], "--samples must be an integer from 2 to 100000, got '-3'"),
-    (["check", "tiny_table", "PROGRAM", "--samples", "many"], "--samples must be an integer from 2 to 100000"),
+    (["check", "tiny_table", "PROGRAM", "--steps", "0"], "--steps must be an integer from 2 to 100000, got '0'"),
+    (["check", "tiny_table", "PROGRAM", "--steps", "-3"], "--steps must be an integer from 2 to 100000, got '-3'"),
+    (["check", "tiny_table", "PROGRAM", "--steps", "many"], "--steps must be an integer from 2 to 100000"),
+    (["check", "tiny_table", "PROGRAM", "--samples", "1"], "--samples must be an integer from 2 to 100000"),
     (["edit", "tiny_table", "wider", "--samples", "0", "-o", "OUT"], "--samples must be an integer from 1 to 100"),
     (["proxydural", "tiny_table", "-n", "0", "-o", "OUT"], "-n must be an integer from 1 to 20, got '0'"),
     (["proxydural", "tiny_table", "-n", "99", "-o", "OUT"], "-n must be an integer from 1 to 20, got '99'"),

@@ -553,6 +553,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     import warnings
 
     argv = list(sys.argv[1:] if argv is None else argv)
+    previous = warnings.formatwarning
     warnings.formatwarning = _one_line_warning  # the command line shows warnings as one line each
     try:
         parser = build_parser(argv)
@@ -566,6 +567,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exc.exit_code
     except BrokenPipeError:
         return 1
+    finally:
+        warnings.formatwarning = previous  # callers of main() in-process keep their own format
 
 
 if __name__ == "__main__":

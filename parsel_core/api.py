@@ -244,11 +244,11 @@ def apply(shape: ShapeLike, program: ProgramLike, values: Mapping[str, float] | 
 
 
 def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Mapping[str, float] | None = None,
-           sweep: int | None = None) -> list[Path]:
+           sweep: int | None = None, progress: bool = False) -> list[Path]:
     """Write the edited shape with the exporter the suffix of ``path`` picks (``parsel apply``).
 
     With ``sweep=N``, N files ``stem_000.ext`` ... across the first parameter's range,
-    all written or none. Returns the paths written.
+    all written or none (``progress``: a display on stderr). Returns the paths written.
     """
     from parsel_core.io import write_all
     from parsel_core.plugins import exporter_for
@@ -272,8 +272,14 @@ def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Map
     stem = output.name[: -len(suffix)]
     paths = [output.with_name(f"{stem}_{i:03d}{suffix}") for i in range(sweep)]
     xs = np.linspace(parameter.lo, parameter.hi, sweep)
-    write_all(paths, lambda i, target: exporter.export(
-        graph, evaluate(program, graph, {**values, parameter.name: float(xs[i])}), target))
+    bar = _progress(sweep, "files", progress)  # watertight exporters take seconds per file
+
+    def write(i: int, target: Path) -> None:
+        exporter.export(graph, evaluate(program, graph, {**values, parameter.name: float(xs[i])}), target)
+        bar.update(1)
+
+    write_all(paths, write)
+    bar.close()
     return paths
 
 

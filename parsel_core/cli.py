@@ -357,7 +357,8 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from parsel_core import api
     from parsel_core.loading import parse_assignments
 
-    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep)
+    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep,
+                       progress=not args.quiet)
     if args.json:
         print(json.dumps({"written": [str(p) for p in paths], "values": parse_assignments(args.set)}, indent=1))
         return 0
@@ -499,6 +500,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
     p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter")
     p.add_argument("--json", action="store_true", help="print the written paths as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr (with --sweep)")
     p.set_defaults(func=cmd_apply)
 
     p = sub.add_parser("inspect", help="list a shape's parts and relations")

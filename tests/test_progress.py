@@ -57,3 +57,10 @@ def test_batch_uses_the_same_display():
     bar.update(1)
     bar.update(1)
     assert isinstance(bar, LineProgress) and stream.getvalue() == "cases: 1/2\ncases: 2/2\n"
+
+
+def test_apply_sweep_reports_each_file(tmp_path, capsys):
+    program = tmp_path / "p.parsel"
+    program.write_text("param x in [0, 1]\ntranslate(top, dir=(0, 1, 0), amount=x)\n")
+    assert main(["apply", "tiny_table", str(program), "--sweep", "3", "-o", str(tmp_path / "t.obj")]) == 0
+    assert capsys.readouterr().err == "files: 1/3\nfiles: 2/3\nfiles: 3/3\n"

@@ -207,7 +207,8 @@ def test_bad_cases_file_is_exit_status_2(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-def test_batch_json_summary(tmp_path, capsys):
+def test_batch_json_summary(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("parsel_core.progress.DELAY", 0.0)  # progress from the first case
     bad = {"id": "bad", "shape": "tiny_table", "seed": "translate(nope, amount=x)"}
     path = cases_file(tmp_path, SEEDS[:1], [bad])
     assert main(["batch", str(path), "-o", str(tmp_path / "out"), "--workers", "0", "--json"]) == 1

@@ -143,14 +143,16 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
          backend: str | None = None, tau: float | None = None, nhbd: bool = True, breaking: bool = True,
          api_base: str | None = None, replay: str | Path | None = None, cache_dir: str | Path | None = None,
          timeout: float | None = None, retries: int | None = None, with_image: bool = False,
-         provider_options: Mapping[str, Any] | None = None) -> EditResult:
+         provider_options: Mapping[str, Any] | None = None,
+         solver_options: Mapping[str, Any] | None = None) -> EditResult:
     """A request in words (through the language layer) or a seed edit (expert mode) -> a
     complete program with its relation report (``parsel edit``).
 
     ``seed`` is op text (``"scale_1d(seat, ..., amount=x)"``) or a :class:`Program`;
     ``hints`` and ``breaks`` add to (and override) what the language layer infers.
     ``timeout`` and ``retries`` go to the provider (seconds per call, retries after a rate
-    limit or server error); ``with_image`` sends a picture of the shape with the prompts.
+    limit or server error); ``with_image`` sends a picture of the shape with the prompts;
+    ``solver_options`` go to the solver as they are (after ``nhbd``, ``breaking``, ``tau``).
     ``provider`` is a registered name or a provider object. Raises ``ParselError`` on bad
     input and ``InferenceError`` (with the prompt record attached) when no usable seed
     comes back.
@@ -202,6 +204,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
     options: dict[str, Any] = {"nhbd": nhbd, "breaking": breaking, "backend": backend}
     if tau is not None:
         options["tau"] = tau
+    options.update(solver_options or {})
     solve = SolveRequest(graph, seed_program, hints, tuple(breaks), options)
     started = time.perf_counter()
     if inference is not None and inference.program is not None:  # one-shot: the model wrote it all

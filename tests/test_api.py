@@ -125,3 +125,15 @@ def test_the_cli_holds_no_pipeline_logic():
                  if isinstance(n, ast.Call) and isinstance(n.func, ast.Attribute)
                  and isinstance(n.func.value, ast.Name) and n.func.value.id == "api"}
         assert calls, f"{name} does not call parsel_core.api"
+
+
+def test_batch_runs_its_cases_through_the_api():
+    runner = ROOT / "plugins" / "parsel-batch" / "parsel_batch" / "runner.py"
+    if not runner.exists():
+        pytest.skip("parsel-batch is not in this tree")
+    tree = ast.parse(runner.read_text(encoding="utf-8"))
+    names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+    names |= {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) for a in n.names}
+    assert not names & {"SolveRequest", "infer", "solvers", "get_named"}, sorted(names & PIPELINE_NAMES)
+    assert any(isinstance(n, ast.Attribute) and n.attr == "edit" and getattr(n.value, "id", "") == "api"
+               for n in ast.walk(tree))

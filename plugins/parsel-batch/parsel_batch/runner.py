@@ -110,56 +110,55 @@ def _from_inputs(inputs: Inputs, source: str, case: Case) -> _Inferred:
     return _Inferred(seed, dict(inputs.hints), list(inputs.breaks), program, source)
 
 
-def _language(shape: ShapeGraph, case: Case) -> _Inferred:
-    """Ask the language layer (``parsel_core.language.infer``), when it is installed."""
+def _language(shape: ShapeGraph, case: Case, common: dict[str, Any]) -> tuple[_Inferred, Any]:
+    """The whole edit through :func:`parsel_core.api.edit` with the case's language-model settings."""
+    from parsel_core import api
+
+    settings = case.language
     try:
-        from parsel_core.language import infer
+        result = api.edit(shape, case.request, provider=settings.provider, model=settings.model, mode=settings.mode,
+                          samples=settings.samples, provider_options=dict(settings.options) or None, **common)
     except ImportError as exc:
         raise CaseError(f"case {case.id}: language mode needs parsel_core.language, which is not available "
                         f"({exc}); give a 'seed' (expert mode) or recorded 'llm' outputs") from None
-    settings = case.language
-    inference = infer(shape, case.request, provider=settings.provider, model=settings.model, mode=settings.mode,
-                      samples=settings.samples, options=dict(settings.options) or None)
+    inference = result.inference
     extra = {"provider": settings.provider, "model": settings.model, "mode": inference.mode,
              "votes": inference.votes}
-    accounting = dict(inference.accounting)
-    return _Inferred(inference.seed, dict(inference.hints), list(inference.breaks), inference.program, "language",
-                     {"summary": extra, "accounting": accounting})
-
-
-def _solve(shape: ShapeGraph, case: Case, inferred: _Inferred, defaults: RunDefaults) -> tuple[Program, list, dict]:
-    """The final program: a one-shot program as is, else the solver's propagation of the seed."""
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.plugins import get_named, solvers
-
-    if inferred.program is not None:
-        inferred.program.validate(shape)
-        return inferred.program, [], {}
-    seed = inferred.seed
-    assert seed is not None
-    seed.validate(shape)
-    solver = get_named("solver", solvers(), case.solver)
-    options = dict(case.options)
-    if defaults.backend is not None:
-        options.setdefault("backend", defaults.backend)
-    result = solver.run(SolveRequest(shape, seed, dict(inferred.hints), tuple(inferred.breaks), options))
-    stats = {k: v for k, v in result.stats.items() if k != "time_s"}  # timings would make outputs differ
-    return result.program, list(result.rejected), stats
+    inferred = _Inferred(inference.seed, dict(inference.hints), list(inference.breaks), inference.program,
+                         "language", {"summary": extra, "accounting": dict(inference.accounting)})
+    return inferred, result
 
 
 def _edit(case: Case, defaults: RunDefaults) -> tuple[dict[str, Any], dict[str, str]]:
-    """Run an ``edit`` case; returns the record's fields and the output files."""
+    """Run an ``edit`` case; returns the record's fields and the output files.
+
+    The pipeline (language layer, solver, relation report) is :func:`parsel_core.api.edit`;
+    a recorded one-shot program is taken as it is."""
+    from parsel_core import api
     from parsel_core.report import check_program
 
     shape = _shape(case.shape)
-    if case.mode == "expert":
-        assert case.expert is not None
-        inferred = _from_inputs(case.expert, "expert", case)
-    elif case.recorded is not None:
-        inferred = _from_inputs(case.recorded, "llm", case)
+    options = dict(case.options)
+    common = {"solver": case.solver, "backend": options.pop("backend", defaults.backend), "solver_options": options}
+    result = None
+    if case.mode == "expert" or case.recorded is not None:
+        if case.mode == "expert":
+            assert case.expert is not None
+            inferred = _from_inputs(case.expert, "expert", case)
+        else:
+            inferred = _from_inputs(case.recorded, "llm", case)
+        if inferred.program is None:
+            assert inferred.seed is not None
+            result = api.edit(shape, seed=inferred.seed, hints=inferred.hints, breaks=inferred.breaks, **common)
     else:
-        inferred = _language(shape, case)
-    program, rejected, stats = _solve(shape, case, inferred, defaults)
+        inferred, result = _language(shape, case, common)
+    if result is not None:
+        program, rejected, report = result.program, list(result.rejected), result.report
+        # timings would make outputs differ between runs
+        stats = {k: v for k, v in report.extra.get("stats", {}).items() if k not in ("time_s", "load_s")}
+    else:  # a recorded one-shot program: the answer as it is
+        inferred.program.validate(shape)
+        program, rejected, stats, report = inferred.program, [], {}, None
     metadata: dict[str, Any] = {"case": case.id, "solver": case.solver if inferred.program is None else None,
                                 "shape": shape.name, "mode": case.mode, "source": inferred.source}
     if case.request is not None:
@@ -167,7 +166,9 @@ def _edit(case: Case, defaults: RunDefaults) -> tuple[dict[str, Any], dict[str, 
     metadata.update({"seed": _seed_text(inferred.seed) if inferred.seed is not None else None,
                      "hints": dict(inferred.hints), "breaks": list(inferred.breaks)})
     program = Program(program.ops, program.parameters, metadata)
-    report = check_program(shape, program, inferred.breaks)
+    if report is None:
+        report = check_program(shape, program, inferred.breaks)
+    report.extra.clear()  # the batch record's own keys, in its own order
     report.extra.update({"case": case.id, "shape": shape.name, "solver": metadata["solver"], "rejected": rejected,
                          "stats": stats})
     if inferred.source == "language":

@@ -116,8 +116,10 @@ def test_language_mode_uses_the_language_layer(monkeypatch):
 
     def infer(shape, request, **kwargs):
         calls.append((shape.name, request, kwargs))
+        # a stand-in for parsel_core.language.Inference: what parsel_core.api.edit reads of it
         return types.SimpleNamespace(seed=Program.from_text(WIDEN), hints={}, breaks=[], program=None,
-                                     mode="full", votes={}, accounting={"calls": 1})
+                                     mode="full", votes={}, accounting={"calls": 1}, record=[],
+                                     summary=lambda: {"mode": "full"})
 
     monkeypatch.setitem(sys.modules, "parsel_core.language", types.SimpleNamespace(infer=infer))
     outcome = run_case(parse_case({"id": "lang", "shape": "tiny_table", "request": "make the top wider",

@@ -27,20 +27,21 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from parsel_core import hookimpl
 from parsel_core.errors import ParselError
-from parsel_core.graph import ShapeGraph
-from parsel_core.program import Evaluation, Program
-from parsel_core.report import RelationReport
 
-ShapeLike = ShapeGraph | str | Path
+if TYPE_CHECKING:  # importing this module stays cheap (the CLI imports it to build its parser)
+    from parsel_core.graph import ShapeGraph
+    from parsel_core.program import Evaluation, Program
+    from parsel_core.report import RelationReport
+
+    ShapeLike = ShapeGraph | str | Path
+    ProgramLike = Program | str | Path
+
 #: The most requests (proxydural sliders, variants) one call asks for: each is a full edit.
 MAX_REQUESTS = 20
-ProgramLike = Program | str | Path
 
 __all__ = [
     "EditResult", "ProxyduralResult", "VariationsResult", "apply", "check", "edit", "export", "proxydural",
@@ -50,6 +51,8 @@ __all__ = [
 
 def as_shape(shape: ShapeLike) -> ShapeGraph:
     """A shape graph as is, else a bundled example name or a file (``load_shape``)."""
+    from parsel_core.graph import ShapeGraph
+
     if isinstance(shape, ShapeGraph):
         return shape
     from parsel_core.loading import load_shape
@@ -59,6 +62,8 @@ def as_shape(shape: ShapeLike) -> ShapeGraph:
 
 def as_program(program: ProgramLike) -> Program:
     """A program as is, else a program file (JSON or text form)."""
+    from parsel_core.program import Program
+
     if isinstance(program, Program):
         return program
     from parsel_core.loading import load_program
@@ -159,6 +164,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
     """
     from parsel_core.interfaces import SolveRequest
     from parsel_core.plugins import get_cas_backend, get_named, solvers
+    from parsel_core.program import Program
     from parsel_core.report import check_program, report_from_errors
     from parsel_core.textform import seed_from_text
 
@@ -253,9 +259,11 @@ def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Map
     With ``sweep=N``, N files ``stem_000.ext`` ... across the first parameter's range,
     all written or none (``progress``: a display on stderr). Returns the paths written.
     """
+    import numpy as np
+
     from parsel_core.io import write_all
     from parsel_core.plugins import exporter_for
-    from parsel_core.program import evaluate
+    from parsel_core.program import Program, evaluate
 
     where = "" if isinstance(program, Program) else f"{program}: "
     graph, program = as_shape(shape), as_program(program)

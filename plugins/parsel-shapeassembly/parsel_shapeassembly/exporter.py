@@ -1,0 +1,618 @@
+"""Edited shapes back to ShapeAssembly programs (``parsel apply ... -o edited.sa.txt``).
+
+The written program reproduces the edited cuboids when parsel's interpreter (the
+paper's) executes it. It is built so that every statement's effect is known:
+
+* Blocks follow the part names: ``Program_1/cube0`` goes into block ``Program_1``, so a
+  shape loaded from a program is written in its source's hierarchy (each sub-program
+  instance as its own block). A block's bounding box is the box of its leaves, in the
+  frame its leaves share (so a tilted back is one rotated sub-program of aligned
+  slats); the root box is centred at the origin, as the interpreter places it, and
+  holds every part, so world positions are kept.
+* A cuboid aligned with its block is placed by one ``attach`` (the interpreter's first
+  attachment only translates): at a contact point of a kept attachment relation with a
+  cuboid placed before it, else on the block's box. Its other kept contacts with
+  placed cuboids follow as further ``attach`` statements, which hold already and
+  therefore move nothing.
+* A rotated cuboid is declared unaligned and attached to the box twice, at two points
+  on a line perpendicular to its rotation axis: the second attachment rotates it by the
+  minimal rotation, which is then exactly its rotation. The interpreter computes angles
+  in float32, so the line is chosen among several to land closest.
+* A kept reflection pair mirrored through the block's centre plane is written as its
+  first member and ``reflect``; an evenly spaced group along a block axis (including a
+  group whose count the edit changed) as its first instance and ``translate``. The
+  macros replay the source's attachments, so the source is attached to its block's box,
+  or to a cuboid that the macro's motion maps onto itself.
+
+The program is executed before it is returned; a cuboid that does not come back within
+``1e-9`` of the shape's diagonal has its macros and contacts dropped and is written
+again with box attachments only. Parts that an edit turned into non-cuboids are written
+as their best-fitting cuboid (``cuboids.fit_box``) and listed in the result, as are the
+cuboids that still do not come back exactly (rotations below float32's resolution).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from parsel_core.errors import ParselError
+from parsel_core.graph import ShapeGraph
+from parsel_core.interfaces import Exporter
+from parsel_core.program import Evaluation
+from parsel_core.relations import Attachment, ReflectionSymmetry, TranslationSymmetry
+from parsel_core.report import tolerance_for
+from parsel_shapeassembly.cuboids import Box, fit_box, in_frame, same_frame
+from parsel_shapeassembly.interpreter import execute
+from parsel_shapeassembly.parser import SUBPROGRAM_PREFIX
+
+#: A hexahedron whose corners lie within this fraction of the diagonal of a cuboid is a cuboid.
+CUBOID_TOLERANCE = 1e-9
+#: Executed corners within this fraction of the diagonal count as reproduced.
+MATCH_TOLERANCE = 1e-9
+#: Lines tried for each rotated cuboid (angles about its rotation axis).
+ROTATION_TRIES = 12
+AXIS_NAMES = ("X", "Y", "Z")
+_IDENT = re.compile(r"[^A-Za-z0-9_]")
+
+
+def _num(value: float) -> str:
+    value = float(value)
+    for exact in (0.0, 0.5, 1.0):
+        if abs(value - exact) < 1e-12:
+            value = exact
+    text = format(value, ".12g")
+    return "0" if text == "-0" else text
+
+
+def _vec(values: Sequence[float]) -> str:
+    return ", ".join(_num(v) for v in values)
+
+
+@dataclass
+class Leaf:
+    """One cuboid to write: a part, or an instance of a re-laid-out group."""
+
+    key: str
+    path: tuple[str, ...]  # block path elements then the cuboid name
+    box: Box
+    deviation: float
+    group: str | None = None  # laid-out group this instance belongs to
+    index: int = 0
+
+
+@dataclass
+class Node:
+    """A cuboid of one block: a leaf, or the box of a sub-block."""
+
+    name: str
+    box: Box  # in world coordinates
+    leaf: Leaf | None = None
+    block: Block | None = None
+
+
+@dataclass
+class Block:
+    """An ``Assembly`` block: its nodes in order, its frame and box (world)."""
+
+    name: str
+    path: tuple[str, ...]
+    nodes: dict[str, Node] = field(default_factory=dict)
+    frame: np.ndarray = field(default_factory=lambda: np.eye(3))
+    box: Box | None = None
+
+    def leaves(self) -> list[Leaf]:
+        out: list[Leaf] = []
+        for node in self.nodes.values():
+            out += [node.leaf] if node.leaf is not None else node.block.leaves()
+        return out
+
+
+@dataclass
+class ShapeAssemblyExport:
+    """A written program and what it says about the shape.
+
+    ``names``: leaf key (part id, or ``group[i]`` for instances) -> leaf name in the
+    executed program. ``non_cuboids``: key -> largest corner distance to the written
+    cuboid. ``inexact``: key -> largest corner error after execution, for cuboids that do
+    not come back within ``MATCH_TOLERANCE``."""
+
+    text: str
+    names: dict[str, str]
+    expected: dict[str, np.ndarray]
+    non_cuboids: dict[str, float]
+    inexact: dict[str, float]
+    statements: dict[str, int]
+
+    def notes(self) -> list[str]:
+        """One line per part written approximately."""
+        out = [f"{key}: not a cuboid after the edit (corners up to {dev:.3g} away); written as its best-fitting "
+               f"cuboid" for key, dev in self.non_cuboids.items()]
+        out += [f"{key}: comes back {err:.3g} away (a rotation below the interpreter's float32 resolution)"
+                for key, err in self.inexact.items() if key not in self.non_cuboids]
+        return out
+
+
+def _identifier(name: str, taken: set[str]) -> str:
+    """A ShapeAssembly cuboid name for a part name: an identifier, not ``bbox`` nor ``Program_*``."""
+    text = _IDENT.sub("_", name) or "part"
+    if not (text[0].isalpha() or text[0] == "_"):
+        text = "p_" + text
+    if text == "bbox" or text.startswith(SUBPROGRAM_PREFIX):
+        text = "part_" + text
+    base, n = text, 1
+    while text in taken:
+        n += 1
+        text = f"{base}_{n}"
+    taken.add(text)
+    return text
+
+
+def collect_leaves(shape: ShapeGraph, evaluation: Evaluation) -> list[Leaf]:
+    """Every cuboid of the edited shape, in part order; a re-laid-out group's instances
+    stand where its first member stood."""
+    replaced = {m: g for g in evaluation.instances for m in shape.relation(g).members}
+    leaves: list[Leaf] = []
+    for pid in shape.parts:
+        if pid in evaluation.removed:
+            continue
+        group = replaced.get(pid)
+        if group is not None:
+            if pid != shape.relation(group).members[0]:
+                continue
+            for i, corners in enumerate(np.asarray(evaluation.instances[group], dtype=float)):
+                box, dev = fit_box(corners)
+                leaves.append(Leaf(f"{group}[{i}]", tuple(pid.split("/")), box, dev, group, i))
+            continue
+        box, dev = fit_box(np.asarray(evaluation.parts[pid], dtype=float))
+        leaves.append(Leaf(pid, tuple(pid.split("/")), box, dev))
+    return leaves
+
+
+def _valid_path(path: tuple[str, ...]) -> bool:
+    return all(p.startswith(SUBPROGRAM_PREFIX) and not _IDENT.search(p) for p in path[:-1])
+
+
+def build_blocks(leaves: Sequence[Leaf]) -> Block:
+    """The block tree from the leaves' paths; names made valid and unique."""
+    root = Block("Program_0", ())
+    block_names = {"Program_0"}
+    by_path: dict[tuple[str, ...], Block] = {(): root}
+    taken: dict[tuple[str, ...], set[str]] = {(): set()}
+    for leaf in leaves:
+        path = leaf.path if _valid_path(leaf.path) else ("/".join(leaf.path),)
+        block = root
+        for depth in range(len(path) - 1):
+            sub = path[: depth + 1]
+            if sub not in by_path:
+                name = path[depth] if path[depth] not in block_names else None
+                if name is None:
+                    n = 2
+                    while f"{path[depth]}_{n}" in block_names:
+                        n += 1
+                    name = f"{path[depth]}_{n}"
+                block_names.add(name)
+                child = Block(name, block.path + (name,))
+                by_path[sub] = child
+                taken[sub] = set()
+                block.nodes[name] = Node(name, leaf.box, block=child)
+                taken[path[:depth]].add(name)
+            block = by_path[sub]
+        if leaf.group is not None and leaf.index > 0:
+            base = next(n.name for n in block.nodes.values() if n.leaf and n.leaf.group == leaf.group)
+            name = _identifier(f"{base}_t{leaf.index}", taken[path[:-1]])
+        else:
+            name = _identifier(path[-1], taken[path[:-1]])
+        block.nodes[name] = Node(name, leaf.box, leaf=leaf)
+    return root
+
+
+def _shared_frame(boxes: Sequence[Box]) -> np.ndarray:
+    """The frame every box shares (up to relabelling), else the world frame."""
+    first = in_frame(boxes[0], np.eye(3)).axes
+    if all(same_frame(b.axes, first, 1e-9) for b in boxes):
+        return first
+    return np.eye(3)
+
+
+def place_blocks(block: Block, is_root: bool = True) -> None:
+    """Choose each block's frame and box (bottom-up) and the sub-block nodes' boxes."""
+    for node in block.nodes.values():
+        if node.block is not None:
+            place_blocks(node.block, False)
+            node.box = node.block.box
+    leaves = block.leaves()
+    if is_root:
+        block.frame = np.eye(3)
+        corners = np.concatenate([node.box.corners() for node in block.nodes.values()])
+        half = np.abs(corners).max(axis=0)
+        block.box = Box(np.zeros(3), np.eye(3), 2 * half)
+        return
+    block.frame = _shared_frame([leaf.box for leaf in leaves])
+    _fit_block_box(block)
+
+
+def _fit_block_box(block: Block) -> None:
+    """The block's box in its frame: it holds every node (leaves and sub-block boxes)."""
+    local = np.concatenate([node.box.corners() for node in block.nodes.values()]) @ block.frame.T
+    lo, hi = local.min(axis=0), local.max(axis=0)
+    block.box = Box(((lo + hi) / 2) @ block.frame, block.frame, hi - lo)
+
+
+def relabel_frames(block: Block) -> None:
+    """Name each sub-block's axes after its parent's nearest axes (top-down), as the parent
+    block states the sub-program's cuboid, so that the block's box and that cuboid agree."""
+    for node in block.nodes.values():
+        if node.block is not None:
+            child = node.block
+            child.frame = in_frame(Box(np.zeros(3), child.frame, np.ones(3)), block.frame).axes
+            _fit_block_box(child)
+            node.box = child.box
+            relabel_frames(child)
+
+
+class _Writer:
+    """Writes the statements of every block; ``simple`` nodes get box attachments only."""
+
+    def __init__(self, shape: ShapeGraph, evaluation: Evaluation, root: Block, simple: set[str]) -> None:
+        self.shape = shape
+        self.evaluation = evaluation
+        self.root = root
+        self.simple = simple
+        self.size = shape.size or 1.0
+        self.names: dict[str, str] = {}
+        self.counts = {"attach": 0, "reflect": 0, "translate": 0, "rotated": 0}
+        corners = {pid: np.asarray(evaluation.parts[pid], dtype=float) for pid in shape.parts
+                   if pid not in evaluation.removed}
+        self.tolerance = tolerance_for(shape)  # what the relation report calls kept
+        self.kept = [r for r in shape.relations.values() if all(m in corners for m in r.members)
+                     and r.holds(corners, self.tolerance)]
+        self.corners = corners
+
+    # -- geometry of one block ---------------------------------------------
+
+    def local_box(self, block: Block, box: Box) -> Box:
+        """A world box in the block's frame (centre relative to the block's centre)."""
+        frame = block.frame
+        local = Box((box.center - block.box.center) @ frame.T, box.axes @ frame.T, box.dims)
+        return in_frame(local, np.eye(3))
+
+    # -- statements ---------------------------------------------------------
+
+    def write(self) -> str:
+        blocks: list[Block] = []
+        queue = [self.root]
+        while queue:
+            block = queue.pop(0)
+            blocks.append(block)
+            queue += [n.block for n in block.nodes.values() if n.block is not None]
+        return "".join(self.block_text(b) for b in blocks)
+
+    def block_text(self, block: Block) -> str:
+        """Declarations first (a macro's copy takes the key ``cube<n>``, which a later declaration
+        of that name would overwrite), then the placing statements in order."""
+        header = [f"Assembly {block.name} {{", f"\tbbox = Cuboid({_vec(block.box.dims)}, True)"]
+        lines: list[str] = []
+        local = {name: self.local_box(block, node.box) for name, node in block.nodes.items()}
+        half = block.box.dims / 2
+        placed: set[str] = set()
+        reflections, translations = self.macros(block, local)
+        owner = self.owners(block)
+        prefix = "/".join(block.path)
+        declared: set[str] = set()
+        for name, node in block.nodes.items():
+            if name in placed:
+                continue
+            box = local[name]
+            aligned = bool(np.array_equal(box.axes, np.eye(3)))
+            decl_dims = np.maximum(box.dims, 1e-9 * self.size)
+            header.append(f"\t{name} = Cuboid({_vec(decl_dims)}, {aligned})")
+            macro_source = name in reflections or name in translations
+            if aligned:
+                lines += self.attach_aligned(block, name, box, local, declared, owner, half, macro_source)
+            else:
+                lines += self.attach_rotated(name, box, half)
+            placed.add(name)
+            declared.add(name)
+            self.record(prefix, name, node)
+            if name in reflections:
+                copy, axis = reflections[name]
+                lines.append(f"\treflect({name}, {AXIS_NAMES[axis]})")
+                placed.add(copy)
+                self.counts["reflect"] += 1
+                self.record(prefix, f"{name}_ref", block.nodes[copy])
+            if name in translations:
+                copies, axis, distance = translations[name]
+                lines.append(f"\ttranslate({name}, {AXIS_NAMES[axis]}, {len(copies)}, {_num(distance)})")
+                self.counts["translate"] += 1
+                for i, copy in enumerate(copies, start=1):
+                    placed.add(copy)
+                    self.record(prefix, f"{name}_t{i}", block.nodes[copy])
+        return "\n".join(header + lines + ["}"]) + "\n"
+
+    def record(self, prefix: str, name: str, node: Node) -> None:
+        if node.leaf is not None:
+            self.names[node.leaf.key] = f"{prefix}/{name}" if prefix else name
+
+    def owners(self, block: Block) -> dict[str, str]:
+        """Part id -> the node of this block that holds it (for contacts)."""
+        out: dict[str, str] = {}
+        for name, node in block.nodes.items():
+            leaves = [node.leaf] if node.leaf is not None else node.block.leaves()
+            for leaf in leaves:
+                if leaf.group is None:
+                    out[leaf.key] = name
+        return out
+
+    def contacts(self, name: str, owner: Mapping[str, str]) -> list[tuple[str, np.ndarray]]:
+        """Kept attachments between node ``name`` and other nodes: (other node, point on ``name``)."""
+        out = []
+        for relation in self.kept:
+            if not isinstance(relation, Attachment):
+                continue
+            a, b = relation.members
+            if owner.get(a) == name and owner.get(b) not in (None, name):
+                point = np.asarray(relation.weights_a) @ self.corners[a]
+                out.append((owner[b], point.mean(axis=0)))
+            elif owner.get(b) == name and owner.get(a) not in (None, name):
+                point = np.asarray(relation.weights_b) @ self.corners[b]
+                out.append((owner[a], point.mean(axis=0)))
+        return out
+
+    def attach_aligned(self, block: Block, name: str, box: Box, local: Mapping[str, Box], declared: set[str],
+                       owner: Mapping[str, str], half: np.ndarray, macro_source: bool) -> list[str]:
+        """One placing attach (a contact with a placed cuboid, else the box), then the other contacts."""
+        lines: list[str] = []
+        contacts = [] if f"{block.name}:{name}" in self.simple else self.contacts(name, owner)
+        first = True
+        for other, world in contacts:
+            if other not in declared:
+                continue
+            if macro_source and not self.symmetric_target(block, name, other, local):
+                continue
+            point = (world - block.box.center) @ block.frame.T
+            target = _local_point(local[other], point, 1e-9 * self.size if macro_source else self.tolerance)
+            if target is None:
+                continue
+            lines.append(f"\tattach({name}, {other}, {_vec(_local_point(box, point))}, {_vec(target)})")
+            self.counts["attach"] += 1
+            first = False
+            if macro_source:
+                break
+        if first:
+            point = _box_anchor(box, half)
+            target = point / (2 * half) + 0.5
+            lines.insert(0, f"\tattach({name}, bbox, {_vec(_local_point(box, point))}, {_vec(target)})")
+            self.counts["attach"] += 1
+        return lines
+
+    def symmetric_target(self, block: Block, name: str, other: str, local: Mapping[str, Box]) -> bool:
+        """Whether the macro that copies ``name`` maps cuboid ``other`` onto itself."""
+        motions = self._motions.get(name, ())
+        box = local[other]
+        corners = box.corners()
+        for motion in motions:
+            moved = motion(corners)
+            if _set_distance(moved, corners) > 1e-9 * self.size:
+                return False
+        return True
+
+    def attach_rotated(self, name: str, box: Box, half: np.ndarray) -> list[str]:
+        """Two box attachments along a line perpendicular to the rotation axis (see module doc)."""
+        self.counts["rotated"] += 1
+        best = None
+        for a_local, b_local, a_target, b_target in _rotation_lines(box, half):
+            lines = [f"\tattach({name}, bbox, {_vec(a_local)}, {_vec(a_target)})",
+                     f"\tattach({name}, bbox, {_vec(b_local)}, {_vec(b_target)})"]
+            text = (f"Assembly Program_0 {{\n\tbbox = Cuboid({_vec(2 * half)}, True)\n"
+                    f"\tc = Cuboid({_vec(np.maximum(box.dims, 1e-9 * self.size))}, False)\n"
+                    + "\n".join(line.replace(f"({name},", "(c,") for line in lines) + "\n}\n")
+            try:
+                got = execute(text).cuboids[0].corners()
+            except ValueError:
+                continue
+            error = _set_distance(got, box.corners())
+            if best is None or error < best[0]:
+                best = (error, lines)
+            if error <= 1e-12 * self.size:
+                break
+        self.counts["attach"] += 2
+        if best is None:
+            raise ParselError(f"cuboid {name}: no attachment reproduces its rotation")
+        return best[1]
+
+    # -- macros -------------------------------------------------------------
+
+    def macros(self, block: Block, local: Mapping[str, Box]):
+        """Reflection pairs and translation groups of this block that the macros reproduce."""
+        self._motions: dict[str, list] = {}
+        reflections: dict[str, tuple[str, int]] = {}
+        translations: dict[str, tuple[list[str], int, float]] = {}
+        node_of = {node.leaf.key: name for name, node in block.nodes.items() if node.leaf is not None}
+        used = {name for name in block.nodes if f"{block.name}:{name}" in self.simple}
+        order = list(block.nodes)
+        size = self.size
+        half = block.box.dims / 2
+        for relation in self.kept:
+            if not isinstance(relation, ReflectionSymmetry):
+                continue
+            names = [node_of.get(m) for m in relation.members]
+            if None in names or set(names) & used:
+                continue
+            source, copy = sorted(names, key=order.index)
+            if f"{source}_ref" in block.nodes and f"{source}_ref" != copy:
+                continue
+            for axis in range(3):
+                def mirror(points, axis=axis):
+                    out = np.array(points, dtype=float)
+                    out[..., axis] *= -1
+                    return out
+                if _set_distance(mirror(local[source].corners()), local[copy].corners()) <= 1e-9 * size:
+                    reflections[source] = (copy, axis)
+                    self._motions[source] = [mirror]
+                    used.update(names)
+                    break
+        groups: dict[str, list[str]] = {}
+        for name, node in block.nodes.items():
+            if node.leaf is not None and node.leaf.group is not None:
+                groups.setdefault(node.leaf.group, []).append(name)
+        for relation in self.kept:
+            if isinstance(relation, TranslationSymmetry) and relation.id not in groups:
+                names = [node_of.get(m) for m in relation.members]
+                if None not in names:
+                    groups[relation.id] = names
+        for names in groups.values():
+            if len(names) < 2 or set(names) & used or min(names, key=order.index) != names[0]:
+                continue
+            if any(f"{names[0]}_t{i}" in block.nodes and f"{names[0]}_t{i}" != n
+                   for i, n in enumerate(names[1:], start=1)):
+                continue
+            boxes = [local[n] for n in names]
+            step = boxes[1].center - boxes[0].center
+            axis = int(np.argmax(np.abs(step)))
+            off_axis = np.delete(step, axis)
+            if np.abs(off_axis).max() > 1e-12 * size or abs(step[axis]) < 1e-9 * size:
+                continue
+            exact = all(np.abs(b.dims - boxes[0].dims).max() <= 1e-12 * size
+                        and np.array_equal(b.axes, boxes[0].axes)
+                        and np.abs(b.center - boxes[0].center - i * step).max() <= 1e-12 * size
+                        for i, b in enumerate(boxes))
+            if not exact:
+                continue
+            count = len(names) - 1
+            translations[names[0]] = (names[1:], axis, float(step[axis]) * count / float(2 * half[axis]))
+            offsets = [np.eye(3)[axis] * step[axis] * i for i in range(1, count + 1)]
+            self._motions[names[0]] = [lambda p, o=o: p + o for o in offsets]
+            used.update(names)
+        return reflections, translations
+
+
+def _set_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance from a corner of ``b`` to the nearest corner of ``a`` (and back)."""
+    d = np.linalg.norm(np.asarray(a)[:, None, :] - np.asarray(b)[None, :, :], axis=-1)
+    return float(max(d.min(axis=0).max(), d.min(axis=1).max()))
+
+
+def _local_point(box: Box, point: np.ndarray, outside: float | None = None) -> np.ndarray | None:
+    """Coordinates of ``point`` in ``box``'s [0, 1]^3. With ``outside``: ``None`` when the point
+    lies farther than that outside the box; a point on the box's surface up to rounding is
+    clipped into [0, 1], one a little farther keeps its coordinates (so it is met exactly)."""
+    local = ((point - box.center) @ box.axes.T) / box.dims + 0.5
+    if outside is None:
+        return local
+    clipped = np.clip(local, 0.0, 1.0)
+    gap = float(np.abs((clipped - local) * box.dims).max())
+    if gap > outside:
+        return None
+    return clipped if gap <= 1e-12 * float(box.dims.max()) else local
+
+
+def _box_anchor(box: Box, half: np.ndarray) -> np.ndarray:
+    """Where an aligned cuboid meets the block's box: the centre of the face on the box's
+    bottom, top or a side when it touches one, else its centre."""
+    lo, hi = box.center - box.dims / 2, box.center + box.dims / 2
+    point = box.center.copy()
+    for axis in (1, 0, 2):
+        scale = max(float(half[axis]), 1e-12)
+        if abs(lo[axis] + half[axis]) <= 1e-9 * scale:
+            point[axis] = lo[axis]
+            break
+        if abs(hi[axis] - half[axis]) <= 1e-9 * scale:
+            point[axis] = hi[axis]
+            break
+    return point
+
+
+def _rotation_lines(box: Box, half: np.ndarray):
+    """Candidate (moved A, moved B, target A, target B) local points for a rotated cuboid.
+
+    The cuboid starts aligned (axes = identity), so its rotation is ``R = axes.T``; a line
+    through the centre along ``d``, perpendicular to R's axis, turns onto ``R d`` by the
+    minimal rotation, which is R."""
+    from scipy.spatial.transform import Rotation
+
+    rotation = box.axes.T
+    rotvec = Rotation.from_matrix(rotation).as_rotvec()
+    angle = float(np.linalg.norm(rotvec))
+    axis = rotvec / angle if angle > 0 else np.array([1.0, 0.0, 0.0])
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    for k in range(ROTATION_TRIES):
+        psi = math.pi * k / ROTATION_TRIES
+        d = math.cos(psi) * e1 + math.sin(psi) * e2
+        s = 0.5 / float(np.max(np.abs(d) / box.dims))
+        a_local = 0.5 - s * d / box.dims
+        b_local = 0.5 + s * d / box.dims
+        xa = box.center - s * (rotation @ d)
+        xb = box.center + s * (rotation @ d)
+        yield a_local, b_local, xa / (2 * half) + 0.5, xb / (2 * half) + 0.5
+
+
+def _executed_corners(text: str) -> dict[str, np.ndarray]:
+    return {c.name: c.corners() for c in execute(text).cuboids}
+
+
+def export_program(shape: ShapeGraph, evaluation: Evaluation, rounds: int = 3) -> ShapeAssemblyExport:
+    """The ShapeAssembly program of ``shape`` as edited (see the module docstring)."""
+    leaves = collect_leaves(shape, evaluation)
+    if not leaves:
+        raise ParselError(f"shape {shape.name!r}: nothing to write (every part was removed)")
+    size = shape.size or 1.0
+    expected = {leaf.key: leaf.box.corners() for leaf in leaves}
+    non_cuboids = {leaf.key: leaf.deviation for leaf in leaves if leaf.deviation > CUBOID_TOLERANCE * size}
+    simple: set[str] = set()
+    for _ in range(rounds):
+        root = build_blocks(leaves)
+        place_blocks(root)
+        relabel_frames(root)
+        writer = _Writer(shape, evaluation, root, simple)
+        text = writer.write()
+        got = _executed_corners(text)
+        errors = {key: (_set_distance(got[name], expected[key]) if name in got else math.inf)
+                  for key, name in writer.names.items()}
+        bad = {key for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+        if not bad:
+            break
+        more = _nodes_of(root, bad) - simple
+        if not more:
+            break
+        simple |= more
+    inexact = {key: err for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+    return ShapeAssemblyExport(text, dict(writer.names), expected, non_cuboids, inexact, dict(writer.counts))
+
+
+def _nodes_of(block: Block, keys: set[str]) -> set[str]:
+    """Names of the nodes (leaves and sub-blocks) on the way to the given leaves."""
+    out: set[str] = set()
+    for name, node in block.nodes.items():
+        if node.leaf is not None and node.leaf.key in keys:
+            out.add(f"{block.name}:{name}")
+        elif node.block is not None:
+            inner = _nodes_of(node.block, keys)
+            if inner:
+                out |= inner | {f"{block.name}:{name}"}
+    return out
+
+
+class ShapeAssemblyExporter(Exporter):
+    """``.sa.txt`` / ``.sa``: the edited shape as a ShapeAssembly program."""
+
+    name = "shapeassembly"
+    extensions = (".sa.txt", ".sa")
+
+    def export(self, shape: ShapeGraph, evaluation: Evaluation, path: Path) -> None:
+        import sys
+
+        from parsel_core.io import atomic_write_text
+
+        result = export_program(shape, evaluation)
+        atomic_write_text(Path(path), result.text)
+        for note in result.notes():
+            print(f"parsel: note: {Path(path).name}: {note}", file=sys.stderr)

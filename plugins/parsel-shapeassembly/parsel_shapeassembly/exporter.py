@@ -6,8 +6,8 @@ paper's) executes it. It is built so that every statement's effect is known:
 * Blocks follow the part names: ``Program_1/cube0`` goes into block ``Program_1``, so a
   shape loaded from a program is written in its source's hierarchy (each sub-program
   instance as its own block). A block's bounding box is the box of its leaves, in the
-  frame its leaves share (so a tilted back is one rotated sub-program of aligned
-  slats); the root box is centred at the origin, as the interpreter places it, and
+  frame most of its leaves share (so a tilted back is one rotated sub-program of
+  aligned slats); the root box is centred at the origin, as the interpreter places it, and
   holds every part, so world positions are kept.
 * A cuboid aligned with its block is placed by one ``attach`` (the interpreter's first
   attachment only translates): at a contact point of a kept attachment relation with a
@@ -55,8 +55,9 @@ from parsel_shapeassembly.parser import SUBPROGRAM_PREFIX
 CUBOID_TOLERANCE = 1e-9
 #: Executed corners within this fraction of the diagonal count as reproduced.
 MATCH_TOLERANCE = 1e-9
-#: Lines tried for each rotated cuboid (angles about its rotation axis).
-ROTATION_TRIES = 12
+#: Lines tried for each rotated cuboid: directions about its rotation axis, and lengths.
+ROTATION_TRIES = 36
+ROTATION_LENGTHS = (1.0, 0.8, 0.6)
 AXIS_NAMES = ("X", "Y", "Z")
 _IDENT = re.compile(r"[^A-Za-z0-9_]")
 
@@ -212,12 +213,24 @@ def build_blocks(leaves: Sequence[Leaf]) -> Block:
     return root
 
 
-def _shared_frame(boxes: Sequence[Box]) -> np.ndarray:
-    """The frame every box shares (up to relabelling), else the world frame."""
-    first = in_frame(boxes[0], np.eye(3)).axes
-    if all(same_frame(b.axes, first, 1e-9) for b in boxes):
-        return first
-    return np.eye(3)
+def _common_frame(boxes: Sequence[Box]) -> np.ndarray:
+    """The frame most of the boxes share (up to relabelling); among equals, the least rotated.
+
+    Parts rotated together (a tilted back and its slats) then sit aligned in their block,
+    and only the block's box is rotated. The interpreter rotates in float32, so a
+    rotation it made itself is reproduced better than the product of two, and the
+    least rotated frame is most often the one the block's box had."""
+    groups: list[list] = []
+    for box in boxes:
+        frame = in_frame(box, np.eye(3)).axes
+        for group in groups:
+            if same_frame(frame, group[0], 1e-9):
+                group[1] += 1
+                break
+        else:
+            groups.append([frame, 1])
+    best = max(groups, key=lambda g: (g[1], -float(np.abs(g[0] - np.eye(3)).max())))
+    return best[0]
 
 
 def place_blocks(block: Block, is_root: bool = True) -> None:
@@ -233,7 +246,7 @@ def place_blocks(block: Block, is_root: bool = True) -> None:
         half = np.abs(corners).max(axis=0)
         block.box = Box(np.zeros(3), np.eye(3), 2 * half)
         return
-    block.frame = _shared_frame([leaf.box for leaf in leaves])
+    block.frame = _common_frame([leaf.box for leaf in leaves])
     _fit_block_box(block)
 
 
@@ -544,15 +557,20 @@ def _rotation_lines(box: Box, half: np.ndarray):
     e1 = np.cross(axis, helper)
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(axis, e1)
-    for k in range(ROTATION_TRIES):
-        psi = math.pi * k / ROTATION_TRIES
-        d = math.cos(psi) * e1 + math.sin(psi) * e2
-        s = 0.5 / float(np.max(np.abs(d) / box.dims))
-        a_local = 0.5 - s * d / box.dims
-        b_local = 0.5 + s * d / box.dims
-        xa = box.center - s * (rotation @ d)
-        xb = box.center + s * (rotation @ d)
-        yield a_local, b_local, xa / (2 * half) + 0.5, xb / (2 * half) + 0.5
+    for length in ROTATION_LENGTHS:
+        for k in range(ROTATION_TRIES):
+            yield _rotation_line(box, half, rotation, math.cos(math.pi * k / ROTATION_TRIES) * e1
+                                 + math.sin(math.pi * k / ROTATION_TRIES) * e2, length)
+
+
+def _rotation_line(box: Box, half: np.ndarray, rotation: np.ndarray, d: np.ndarray, length: float):
+    """The two points of one line along ``d`` (``length`` of the longest that fits in the cuboid)."""
+    s = length * 0.5 / float(np.max(np.abs(d) / box.dims))
+    a_local = 0.5 - s * d / box.dims
+    b_local = 0.5 + s * d / box.dims
+    xa = box.center - s * (rotation @ d)
+    xb = box.center + s * (rotation @ d)
+    return a_local, b_local, xa / (2 * half) + 0.5, xb / (2 * half) + 0.5
 
 
 def _executed_corners(text: str) -> dict[str, np.ndarray]:

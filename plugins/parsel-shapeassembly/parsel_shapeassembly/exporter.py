@@ -5,9 +5,10 @@ paper's) executes it. It is built so that every statement's effect is known:
 
 * Blocks follow the part names: ``Program_1/cube0`` goes into block ``Program_1``, so a
   shape loaded from a program is written in its source's hierarchy (each sub-program
-  instance as its own block). A block's bounding box is the box of its leaves, in the
-  frame most of its leaves share (so a tilted back is one rotated sub-program of
-  aligned slats); the root box is centred at the origin, as the interpreter places it, and
+  instance as its own block). A block's bounding box holds its cuboids, in the frame
+  most of its leaves share (so a tilted back is one rotated sub-program of aligned
+  slats; ``FRAME_POLICIES`` lists the other choices tried when that does not come back
+  exactly); the root box is centred at the origin, as the interpreter places it, and
   holds every part, so world positions are kept.
 * A cuboid aligned with its block is placed by one ``attach`` (the interpreter's first
   attachment only translates): at a contact point of a kept attachment relation with a
@@ -25,10 +26,12 @@ paper's) executes it. It is built so that every statement's effect is known:
   or to a cuboid that the macro's motion maps onto itself.
 
 The program is executed before it is returned; a cuboid that does not come back within
-``1e-9`` of the shape's diagonal has its macros and contacts dropped and is written
-again with box attachments only. Parts that an edit turned into non-cuboids are written
-as their best-fitting cuboid (``cuboids.fit_box``) and listed in the result, as are the
-cuboids that still do not come back exactly (rotations below float32's resolution).
+``MATCH_TOLERANCE`` of the shape's diagonal has its macros and contacts dropped and is
+written again with box attachments only, and the other block frames are tried. Parts
+that an edit turned into non-cuboids are written as their best-fitting cuboid
+(``cuboids.fit_box``) and listed in the result, as are the cuboids that still do not
+come back (rotations near float32's resolution: the interpreter turns an angle below
+about 2.4e-4 radians into none, and quantises small angles coarsely).
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ from parsel_shapeassembly.parser import SUBPROGRAM_PREFIX
 #: A hexahedron whose corners lie within this fraction of the diagonal of a cuboid is a cuboid.
 CUBOID_TOLERANCE = 1e-9
 #: Executed corners within this fraction of the diagonal count as reproduced.
-MATCH_TOLERANCE = 1e-9
+MATCH_TOLERANCE = 1e-7
 #: Lines tried for each rotated cuboid: directions about its rotation axis, and lengths.
 ROTATION_TRIES = 36
 ROTATION_LENGTHS = (1.0, 0.8, 0.6)
@@ -213,6 +216,22 @@ def build_blocks(leaves: Sequence[Leaf]) -> Block:
     return root
 
 
+#: How blocks choose their frame, in the order tried (see ``_block_frame``).
+FRAME_POLICIES = ("common", "shared", "world")
+
+
+def _block_frame(boxes: Sequence[Box], policy: str) -> np.ndarray:
+    """A block's frame: ``common``: the one most of its parts share; ``shared``: the one all
+    share, else the world's; ``world``: the world's. Which reproduces the rotations best
+    depends on how the source program made them, so the exporter tries them in turn."""
+    if policy == "world":
+        return np.eye(3)
+    frame = _common_frame(boxes)
+    if policy == "shared" and not all(same_frame(in_frame(b, np.eye(3)).axes, frame, 1e-9) for b in boxes):
+        return np.eye(3)
+    return frame
+
+
 def _common_frame(boxes: Sequence[Box]) -> np.ndarray:
     """The frame most of the boxes share (up to relabelling); among equals, the least rotated.
 
@@ -233,11 +252,11 @@ def _common_frame(boxes: Sequence[Box]) -> np.ndarray:
     return best[0]
 
 
-def place_blocks(block: Block, is_root: bool = True) -> None:
+def place_blocks(block: Block, is_root: bool = True, policy: str = "common") -> None:
     """Choose each block's frame and box (bottom-up) and the sub-block nodes' boxes."""
     for node in block.nodes.values():
         if node.block is not None:
-            place_blocks(node.block, False)
+            place_blocks(node.block, False, policy)
             node.box = node.block.box
     leaves = block.leaves()
     if is_root:
@@ -246,7 +265,7 @@ def place_blocks(block: Block, is_root: bool = True) -> None:
         half = np.abs(corners).max(axis=0)
         block.box = Box(np.zeros(3), np.eye(3), 2 * half)
         return
-    block.frame = _common_frame([leaf.box for leaf in leaves])
+    block.frame = _block_frame([leaf.box for leaf in leaves], policy)
     _fit_block_box(block)
 
 
@@ -432,7 +451,7 @@ class _Writer:
             error = _set_distance(got, box.corners())
             if best is None or error < best[0]:
                 best = (error, lines)
-            if error <= 1e-12 * self.size:
+            if error <= 1e-10 * self.size:
                 break
         self.counts["attach"] += 2
         if best is None:
@@ -585,25 +604,31 @@ def export_program(shape: ShapeGraph, evaluation: Evaluation, rounds: int = 3) -
     size = shape.size or 1.0
     expected = {leaf.key: leaf.box.corners() for leaf in leaves}
     non_cuboids = {leaf.key: leaf.deviation for leaf in leaves if leaf.deviation > CUBOID_TOLERANCE * size}
-    simple: set[str] = set()
-    for _ in range(rounds):
-        root = build_blocks(leaves)
-        place_blocks(root)
-        relabel_frames(root)
-        writer = _Writer(shape, evaluation, root, simple)
-        text = writer.write()
-        got = _executed_corners(text)
-        errors = {key: (_set_distance(got[name], expected[key]) if name in got else math.inf)
-                  for key, name in writer.names.items()}
-        bad = {key for key, err in errors.items() if err > MATCH_TOLERANCE * size}
-        if not bad:
+    best = None
+    for policy in FRAME_POLICIES:
+        simple: set[str] = set()
+        for _ in range(rounds):
+            root = build_blocks(leaves)
+            place_blocks(root, policy=policy)
+            relabel_frames(root)
+            writer = _Writer(shape, evaluation, root, simple)
+            text = writer.write()
+            got = _executed_corners(text)
+            errors = {key: (_set_distance(got[name], expected[key]) if name in got else math.inf)
+                      for key, name in writer.names.items()}
+            bad = {key for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+            more = _nodes_of(root, bad) - simple
+            if not bad or not more:
+                break
+            simple |= more
+        inexact = {key: err for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+        score = (len(inexact), max(inexact.values(), default=0.0))
+        if best is None or score < best[0]:
+            best = (score, ShapeAssemblyExport(text, dict(writer.names), expected, non_cuboids, inexact,
+                                               dict(writer.counts)))
+        if not inexact:
             break
-        more = _nodes_of(root, bad) - simple
-        if not more:
-            break
-        simple |= more
-    inexact = {key: err for key, err in errors.items() if err > MATCH_TOLERANCE * size}
-    return ShapeAssemblyExport(text, dict(writer.names), expected, non_cuboids, inexact, dict(writer.counts))
+    return best[1]
 
 
 def _nodes_of(block: Block, keys: set[str]) -> set[str]:

@@ -101,11 +101,12 @@ def fit_program(shape: ShapeGraph, program: Program, target: np.ndarray, *, star
                      time.process_time() - cpu0, time.perf_counter() - wall0, runs)
 
 
-def fitted_program(program: Program, result: FitResult, target: str) -> Program:
-    """The program with the fitted values as its parameters' defaults and the fit in its metadata."""
+def fitted_program(program: Program, result: FitResult, target: str, timings: bool = True) -> Program:
+    """The program with the fitted values as its parameters' defaults and the fit in its metadata
+    (without the times when ``timings`` is false, so that a batch's outputs are reproducible)."""
     from dataclasses import replace
 
     parameters = tuple(replace(p, default=result.values[p.name]) for p in program.parameters)
-    metadata = {**program.metadata, "fit": {"target": target, **{k: v for k, v in result.to_dict().items()
-                                                                  if k != "starts"}}}
-    return Program(program.ops, parameters, metadata)
+    dropped = {"starts"} | (set() if timings else {"cpu_s", "wall_s"})
+    fit = {"target": target, **{k: v for k, v in result.to_dict().items() if k not in dropped}}
+    return Program(program.ops, parameters, {**program.metadata, "fit": fit})

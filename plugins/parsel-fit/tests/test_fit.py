@@ -130,3 +130,30 @@ def test_fit_command_errors_are_one_line_and_write_nothing(tmp_path, capsys):
     assert main(["fit", "tiny_table", str(program_path), "chair", "-o", str(tmp_path / "fitted.txt")]) == 2
     assert "written as JSON" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_batch_case_with_a_target_is_fitted(tmp_path):
+    from parsel_batch.cases import CaseFormatError, parse_case
+    from parsel_batch.runner import run_case
+
+    shape = load_shape("tiny_table")
+    seed = "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)"
+    plain = run_case(parse_case({"id": "plain", "shape": "tiny_table", "seed": seed}, base=tmp_path))
+    program = Program.from_json(plain.files["program.json"])
+    known = 0.6 * program.parameters[0].hi
+    np.savetxt(tmp_path / "wide.xyz", _target(shape, program, {"x": known}, noise=0.0))
+    case = parse_case({"id": "fit", "shape": "tiny_table", "seed": seed, "target": "wide.xyz"}, base=tmp_path)
+    assert case.target == str(tmp_path / "wide.xyz")
+    outcome = run_case(case)
+    assert outcome.ok, outcome.record["error"]
+    fit = outcome.record["fit"]
+    assert fit["distance_after"] < fit["distance_before"]
+    assert abs(fit["values"]["x"] - known) < 0.02 * program.parameters[0].hi
+    fitted = json.loads(outcome.files["fitted.json"])
+    assert "cpu_s" not in fitted["metadata"]["fit"]  # batch outputs stay reproducible
+    assert fitted["parameters"][0]["default"] == fit["values"]["x"]
+    missing = run_case(parse_case({"id": "gone", "shape": "tiny_table", "seed": seed, "target": "gone.ply"},
+                                  base=tmp_path))
+    assert not missing.ok and "gone.ply: target file not found" in missing.record["error"]["message"]
+    with pytest.raises(CaseFormatError, match="'target' must be"):
+        parse_case({"shape": "tiny_table", "seed": seed, "target": 3}, base=tmp_path)

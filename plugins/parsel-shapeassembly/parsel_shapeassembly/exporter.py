@@ -27,11 +27,13 @@ paper's) executes it. It is built so that every statement's effect is known:
 
 The program is executed before it is returned; a cuboid that does not come back within
 ``MATCH_TOLERANCE`` of the shape's diagonal has its macros and contacts dropped and is
-written again with box attachments only, and the other block frames are tried. Parts
-that an edit turned into non-cuboids are written as their best-fitting cuboid
-(``cuboids.fit_box``) and listed in the result, as are the cuboids that still do not
-come back (rotations near float32's resolution: the interpreter turns an angle below
-about 2.4e-4 radians into none, and quantises small angles coarsely).
+written again with box attachments only, and the other block frames are tried. A
+rotation the interpreter cannot make (it turns an angle below about 2.4e-4 radians into
+none and quantises small angles coarsely, from float32 cosines) is then made as two it
+can: the part gets a block of its own (``Program_<name>_turn``) turned by ``TURN``, and
+the part is turned back within it. Parts that an edit turned into non-cuboids are
+written as their best-fitting cuboid (``cuboids.fit_box``) and listed in the result, as
+are cuboids that still do not come back.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.interfaces import Exporter
 from parsel_core.program import Evaluation
-from parsel_core.relations import Attachment, ReflectionSymmetry, TranslationSymmetry
+from parsel_core.relations import Attachment, ReflectionSymmetry, TranslationSymmetry, rotation_matrix
 from parsel_core.report import tolerance_for
 from parsel_shapeassembly.cuboids import Box, fit_box, in_frame, same_frame
 from parsel_shapeassembly.interpreter import execute
@@ -109,6 +111,8 @@ class Block:
     nodes: dict[str, Node] = field(default_factory=dict)
     frame: np.ndarray = field(default_factory=lambda: np.eye(3))
     box: Box | None = None
+    #: A block made to hold one part whose rotation is too small for the interpreter (see TURN).
+    turned: bool = False
 
     def leaves(self) -> list[Leaf]:
         out: list[Leaf] = []
@@ -182,14 +186,17 @@ def _valid_path(path: tuple[str, ...]) -> bool:
     return all(p.startswith(SUBPROGRAM_PREFIX) and not _IDENT.search(p) for p in path[:-1])
 
 
-def build_blocks(leaves: Sequence[Leaf]) -> Block:
-    """The block tree from the leaves' paths; names made valid and unique."""
+def build_blocks(leaves: Sequence[Leaf], turned: frozenset[str] = frozenset()) -> Block:
+    """The block tree from the leaves' paths; names made valid and unique. A leaf in
+    ``turned`` gets a block of its own (``Program_<name>_turn``), rotated by ``TURN``."""
     root = Block("Program_0", ())
     block_names = {"Program_0"}
     by_path: dict[tuple[str, ...], Block] = {(): root}
     taken: dict[tuple[str, ...], set[str]] = {(): set()}
     for leaf in leaves:
         path = leaf.path if _valid_path(leaf.path) else ("/".join(leaf.path),)
+        if leaf.key in turned:
+            path = path[:-1] + (f"{SUBPROGRAM_PREFIX}{_IDENT.sub('_', path[-1])}_turn", path[-1])
         block = root
         for depth in range(len(path) - 1):
             sub = path[: depth + 1]
@@ -201,7 +208,7 @@ def build_blocks(leaves: Sequence[Leaf]) -> Block:
                         n += 1
                     name = f"{path[depth]}_{n}"
                 block_names.add(name)
-                child = Block(name, block.path + (name,))
+                child = Block(name, block.path + (name,), turned=leaf.key in turned and depth == len(path) - 2)
                 by_path[sub] = child
                 taken[sub] = set()
                 block.nodes[name] = Node(name, leaf.box, block=child)
@@ -215,6 +222,11 @@ def build_blocks(leaves: Sequence[Leaf]) -> Block:
         block.nodes[name] = Node(name, leaf.box, leaf=leaf)
     return root
 
+
+#: The frame of a block made for one part (``Block.turned``): ``TURN @ part frame``. A
+#: rotation the interpreter cannot make (a few 1e-4 radians: its float32 cosines round it
+#: off) becomes two it can, the block's and the part's within it, each of about 0.6 rad.
+TURN = rotation_matrix((0.5, 0.65, 0.35), 0.68)
 
 #: How blocks choose their frame, in the order tried (see ``_block_frame``).
 FRAME_POLICIES = ("common", "shared", "world")
@@ -265,7 +277,10 @@ def place_blocks(block: Block, is_root: bool = True, policy: str = "common") -> 
         half = np.abs(corners).max(axis=0)
         block.box = Box(np.zeros(3), np.eye(3), 2 * half)
         return
-    block.frame = _block_frame([leaf.box for leaf in leaves], policy)
+    if block.turned:
+        block.frame = TURN @ in_frame(leaves[0].box, np.eye(3)).axes
+    else:
+        block.frame = _block_frame([leaf.box for leaf in leaves], policy)
     _fit_block_box(block)
 
 
@@ -596,39 +611,49 @@ def _executed_corners(text: str) -> dict[str, np.ndarray]:
     return {c.name: c.corners() for c in execute(text).cuboids}
 
 
-def export_program(shape: ShapeGraph, evaluation: Evaluation, rounds: int = 3) -> ShapeAssemblyExport:
+def export_program(shape: ShapeGraph, evaluation: Evaluation) -> ShapeAssemblyExport:
     """The ShapeAssembly program of ``shape`` as edited (see the module docstring)."""
     leaves = collect_leaves(shape, evaluation)
     if not leaves:
         raise ParselError(f"shape {shape.name!r}: nothing to write (every part was removed)")
+    best = None
+    for policy in FRAME_POLICIES:
+        attempt = _attempt(shape, evaluation, leaves, policy, frozenset())
+        if best is None or attempt[0] < best[0]:
+            best = attempt
+        if not best[1].inexact:
+            return best[1]
+    # parts that still do not come back: rotations too small for the interpreter; give each a turned block
+    retry = _attempt(shape, evaluation, leaves, best[2], frozenset(best[1].inexact))
+    return (retry if retry[0] < best[0] else best)[1]
+
+
+def _attempt(shape: ShapeGraph, evaluation: Evaluation, leaves: Sequence[Leaf], policy: str,
+             turned: frozenset[str], rounds: int = 3) -> tuple[tuple[float, float], ShapeAssemblyExport, str]:
+    """Write, execute and compare; cuboids that do not come back lose their macros and
+    contacts for the next round. Returns (score, export, policy), lower scores better."""
     size = shape.size or 1.0
     expected = {leaf.key: leaf.box.corners() for leaf in leaves}
     non_cuboids = {leaf.key: leaf.deviation for leaf in leaves if leaf.deviation > CUBOID_TOLERANCE * size}
-    best = None
-    for policy in FRAME_POLICIES:
-        simple: set[str] = set()
-        for _ in range(rounds):
-            root = build_blocks(leaves)
-            place_blocks(root, policy=policy)
-            relabel_frames(root)
-            writer = _Writer(shape, evaluation, root, simple)
-            text = writer.write()
-            got = _executed_corners(text)
-            errors = {key: (_set_distance(got[name], expected[key]) if name in got else math.inf)
-                      for key, name in writer.names.items()}
-            bad = {key for key, err in errors.items() if err > MATCH_TOLERANCE * size}
-            more = _nodes_of(root, bad) - simple
-            if not bad or not more:
-                break
-            simple |= more
-        inexact = {key: err for key, err in errors.items() if err > MATCH_TOLERANCE * size}
-        score = (len(inexact), max(inexact.values(), default=0.0))
-        if best is None or score < best[0]:
-            best = (score, ShapeAssemblyExport(text, dict(writer.names), expected, non_cuboids, inexact,
-                                               dict(writer.counts)))
-        if not inexact:
+    simple: set[str] = set()
+    for _ in range(rounds):
+        root = build_blocks(leaves, turned)
+        place_blocks(root, policy=policy)
+        relabel_frames(root)
+        writer = _Writer(shape, evaluation, root, simple)
+        text = writer.write()
+        got = _executed_corners(text)
+        errors = {key: (_set_distance(got[name], expected[key]) if name in got else math.inf)
+                  for key, name in writer.names.items()}
+        bad = {key for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+        more = _nodes_of(root, bad) - simple
+        if not bad or not more:
             break
-    return best[1]
+        simple |= more
+    inexact = {key: err for key, err in errors.items() if err > MATCH_TOLERANCE * size}
+    score = (len(inexact), max(inexact.values(), default=0.0))
+    return score, ShapeAssemblyExport(text, dict(writer.names), expected, non_cuboids, inexact,
+                                      dict(writer.counts)), policy
 
 
 def _nodes_of(block: Block, keys: set[str]) -> set[str]:

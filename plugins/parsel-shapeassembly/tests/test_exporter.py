@@ -138,3 +138,16 @@ def test_nothing_to_write_is_an_error():
     shape = ShapeGraph([Part("a", "a", Hexahedron.from_box((0, 0, 0), (1, 1, 1)))])
     with pytest.raises(ParselError, match="nothing to write"):
         export_program(shape, Evaluation(shape.rest_corners(), removed=frozenset({"a"})))
+
+
+def test_a_rotation_too_small_for_the_interpreter_gets_a_turned_block():
+    from scipy.spatial.transform import Rotation
+
+    # 1e-4 rad: the interpreter's float32 cosine of it is 1, so two attachments cannot make it
+    axes = Rotation.from_rotvec([0.0, 0.0, 1e-4]).as_matrix().T
+    shape = ShapeGraph([Part("slab", "slab", Hexahedron.from_box((0.0, 0.2, 0.0), (1.0, 0.05, 0.4), axes)),
+                        Part("post", "post", Hexahedron.from_box((0.0, -0.2, 0.0), (0.1, 0.7, 0.1)))])
+    result, errors = _round_trip_errors(shape, Evaluation(shape.rest_corners()))
+    assert max(errors.values()) < 1e-7 and not result.inexact
+    assert result.names["slab"] == "Program_slab_turn/slab"
+    assert "Assembly Program_slab_turn {" in result.text

@@ -2,7 +2,7 @@
 
 For a fixed sample of val-split ShapeAssembly programs (default 30, spread over chair,
 table and storage) the script builds a two-slider program from the rule-based designer
-seeds (``designer_seeds.py``: ``x`` widens the seat/top/body, ``y`` lengthens the legs,
+seeds (``seed_rules.py``: ``x`` widens the seat/top/body, ``y`` lengthens the legs,
 each completed by AEP, stacked), then
 
 1. applies it at random known values, samples the surface with another seed than the
@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from designer_seeds import lengthen_seed, sample_programs, widen_seed  # noqa: E402
+from seed_rules import lengthen_seed, sample_programs, widen_seed  # noqa: E402
 
 from parsel_core.interfaces import SolveRequest  # noqa: E402
 from parsel_core.loading import load_shape  # noqa: E402

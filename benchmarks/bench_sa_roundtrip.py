@@ -1,7 +1,7 @@
 """Round trip of edited shapes through ShapeAssembly: export, execute, compare corners.
 
 For a fixed sample of val-split programs (default 200, spread over chair, table and
-storage) the script makes a designer seed edit (``designer_seeds.py``: widen the
+storage) the script makes a designer seed edit (``seed_rules.py``: widen the
 seat/top/body about its centre, or lengthen the legs from their bottom), completes it
 with AEP, evaluates the program at x = 0.5 (or the top of its range when that is
 lower), writes the edited shape as a ShapeAssembly program, executes the written

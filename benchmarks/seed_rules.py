@@ -1,8 +1,8 @@
-"""Rule-based designer seed edits for ShapeAssembly val shapes, chosen from part labels.
+"""Rule-based designer edits for the round-trip and fitting benchmarks, chosen from part labels.
 
 A designer widens the seat (chair), the top (table) or the body/top (storage) about its
 centre, or lengthens the legs from their bottom; shapes without such parts get the
-same edit on their largest part. Used by the round-trip and fitting benchmarks.
+same edit on their largest part.
 """
 
 from __future__ import annotations

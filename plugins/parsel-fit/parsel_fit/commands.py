@@ -46,6 +46,6 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="the fitted program (.json): fitted values as defaults")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="keep a parameter at this value")
     p.add_argument("--starts", type=int, default=4, help="optimiser starts (default 4: the defaults + 3 spread)")
-    p.add_argument("--samples", type=int, default=2048, help="surface samples of the edited shape (default 2048)")
+    p.add_argument("--samples", type=int, default=8192, help="surface samples of the edited shape (default 8192)")
     p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
     p.set_defaults(func=cmd_fit)

@@ -20,18 +20,25 @@ from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
 from parsel_core.program import Evaluation
 
-DEFAULT_SAMPLES = 2048
+DEFAULT_SAMPLES = 8192
 
 
 def _triangle_samples(triangles: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
-    """``count`` points on triangles (t, 3, 3), area-weighted."""
+    """``count`` points spread evenly over triangles (t, 3, 3): a scrambled Halton sequence
+    picks the triangle (by cumulative area) and the point in it, so the samples cover the
+    surface without the clumps and holes of independent draws, which would otherwise
+    dominate the Chamfer distance between two samplings of the same surface."""
+    from scipy.stats import qmc
+
     a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
     areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     total = float(areas.sum())
     if count <= 0 or total <= 0:
         return np.zeros((0, 3))
-    which = rng.choice(len(triangles), size=count, p=areas / total)
-    r1, r2 = rng.random(count), rng.random(count)
+    u = qmc.Halton(d=3, scramble=True, seed=rng).random(count)
+    cumulative = np.cumsum(areas) / total
+    which = np.minimum(np.searchsorted(cumulative, u[:, 0], side="right"), len(triangles) - 1)
+    r1, r2 = u[:, 1].copy(), u[:, 2].copy()
     flip = r1 + r2 > 1
     r1[flip], r2[flip] = 1 - r1[flip], 1 - r2[flip]
     return a[which] + r1[:, None] * (b[which] - a[which]) + r2[:, None] * (c[which] - a[which])

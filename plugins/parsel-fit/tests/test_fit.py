@@ -111,9 +111,11 @@ def test_fit_command_writes_the_fitted_program(tmp_path, capsys):
     program_path.write_text(WIDEN_TINY_TABLE, encoding="utf-8")
     np.savetxt(tmp_path / "target.xyz", _target(shape, program, {"x": 0.4}, noise=0.002))
     out = tmp_path / "fitted.json"
-    assert main(["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "-o", str(out)]) == 0
+    assert main(["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "-o", str(out),
+                 "--samples", "2048"]) == 0
     printed = capsys.readouterr().out
-    assert "Chamfer distance:" in printed and "x = 0.4" in printed
+    assert "Chamfer distance:" in printed and "at the defaults ->" in printed
+    assert "(range [0, 0.5], was 0.25)" in printed
     data = json.loads(out.read_text())
     (parameter,) = data["parameters"]
     assert abs(parameter["default"] - 0.4) < 0.01 and parameter["lo"] == 0 and parameter["hi"] == 0.5

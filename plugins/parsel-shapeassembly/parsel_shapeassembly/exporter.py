@@ -165,6 +165,12 @@ def collect_leaves(shape: ShapeGraph, evaluation: Evaluation) -> list[Leaf]:
     """Every cuboid of the edited shape, in part order; a re-laid-out group's instances
     stand where its first member stood."""
     replaced = {m: g for g in evaluation.instances for m in shape.relation(g).members}
+    thinnest = 1e-9 * (shape.size or 1.0)  # ShapeAssembly cuboids need positive sides
+
+    def fitted(corners) -> tuple[Box, float]:
+        box, deviation = fit_box(np.asarray(corners, dtype=float))
+        return Box(box.center, box.axes, np.maximum(box.dims, thinnest)), deviation
+
     leaves: list[Leaf] = []
     for pid in shape.parts:
         if pid in evaluation.removed:
@@ -174,11 +180,9 @@ def collect_leaves(shape: ShapeGraph, evaluation: Evaluation) -> list[Leaf]:
             if pid != shape.relation(group).members[0]:
                 continue
             for i, corners in enumerate(np.asarray(evaluation.instances[group], dtype=float)):
-                box, dev = fit_box(corners)
-                leaves.append(Leaf(f"{group}[{i}]", tuple(pid.split("/")), box, dev, group, i))
+                leaves.append(Leaf(f"{group}[{i}]", tuple(pid.split("/")), *fitted(corners), group, i))
             continue
-        box, dev = fit_box(np.asarray(evaluation.parts[pid], dtype=float))
-        leaves.append(Leaf(pid, tuple(pid.split("/")), box, dev))
+        leaves.append(Leaf(pid, tuple(pid.split("/")), *fitted(evaluation.parts[pid])))
     return leaves
 
 
@@ -357,8 +361,7 @@ class _Writer:
                 continue
             box = local[name]
             aligned = bool(np.array_equal(box.axes, np.eye(3)))
-            decl_dims = np.maximum(box.dims, 1e-9 * self.size)
-            header.append(f"\t{name} = Cuboid({_vec(decl_dims)}, {aligned})")
+            header.append(f"\t{name} = Cuboid({_vec(box.dims)}, {aligned})")
             macro_source = name in reflections or name in translations
             if aligned:
                 lines += self.attach_aligned(block, name, box, local, declared, owner, half, macro_source)
@@ -457,7 +460,7 @@ class _Writer:
             lines = [f"\tattach({name}, bbox, {_vec(a_local)}, {_vec(a_target)})",
                      f"\tattach({name}, bbox, {_vec(b_local)}, {_vec(b_target)})"]
             text = (f"Assembly Program_0 {{\n\tbbox = Cuboid({_vec(2 * half)}, True)\n"
-                    f"\tc = Cuboid({_vec(np.maximum(box.dims, 1e-9 * self.size))}, False)\n"
+                    f"\tc = Cuboid({_vec(box.dims)}, False)\n"
                     + "\n".join(line.replace(f"({name},", "(c,") for line in lines) + "\n}\n")
             try:
                 got = execute(text).cuboids[0].corners()

@@ -151,3 +151,13 @@ def test_a_rotation_too_small_for_the_interpreter_gets_a_turned_block():
     assert max(errors.values()) < 1e-7 and not result.inexact
     assert result.names["slab"] == "Program_slab_turn/slab"
     assert "Assembly Program_slab_turn {" in result.text
+
+
+def test_a_part_squashed_flat_is_written_with_a_positive_thickness(tmp_path):
+    shape = ShapeGraph([Part("board", "board", Hexahedron.from_box((0, 0.5, 0), (1.0, 0.1, 0.5))),
+                        Part("post", "post", Hexahedron.from_box((0, 0.0, 0), (0.1, 0.9, 0.1)))])
+    program = Program.from_text("scale_1d(board, origin=(0, 0.5, 0), dir=(0, 1, 0), amount=-1)")
+    result, errors = _round_trip_errors(shape, evaluate(program, shape, {}))
+    assert max(errors.values()) < 1e-8
+    (board,) = [c for c in execute(result.text).cuboids if c.name == "board"]
+    assert 0 < min(board.dims) < 1e-8

@@ -33,7 +33,7 @@ _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 #: Names in a batch OUTDIR that a case id must not take.
 RESERVED_IDS = ("results.jsonl",)
 FIELDS = ("id", "kind", "shape", "request", "seed", "hints", "breaks", "llm", "ground_truth", "mode", "solver",
-          "options", "language")
+          "options", "language", "target")
 LLM_FIELDS = ("seed", "hints", "breaks", "program")
 LANGUAGE_FIELDS = ("provider", "model", "mode", "samples", "options")
 
@@ -86,6 +86,8 @@ class Case:
     options: Mapping[str, Any] = field(default_factory=dict)
     language: LanguageSettings = field(default_factory=LanguageSettings)
     line: int = 0
+    #: A target (mesh, point cloud or shape) the case's program is fitted to (parsel-fit).
+    target: str | None = None
 
 
 def _where(source: str, line: int) -> str:
@@ -220,10 +222,14 @@ def parse_case(data: Any, source: str = "<cases>", line: int = 0, base: Path | N
         raise CaseFormatError(f"{where}: 'language': {exc}") from None
     if not isinstance(settings.samples, int) or isinstance(settings.samples, bool) or settings.samples < 1:
         raise CaseFormatError(f"{where}: 'language.samples' must be a positive integer")
+    target = data.get("target")
+    if target is not None and (not isinstance(target, str) or not target):
+        raise CaseFormatError(f"{where}: 'target' must be a mesh, point-cloud or shape file, or a shape name")
     return Case(
         id=case_id, shape=_resolve(shape, base), kind=kind, request=request, expert=expert, recorded=recorded,
         ground_truth=_program_ref(data.get("ground_truth"), "ground_truth", where, base), mode=mode,
         solver=solver, options=dict(options), language=settings, line=line,
+        target=_resolve(target, base) if target is not None else None,
     )
 
 

@@ -195,7 +195,23 @@ def _edit(case: Case, defaults: RunDefaults) -> tuple[dict[str, Any], dict[str, 
     if "accounting" in inferred.extra:
         record["accounting"] = inferred.extra["accounting"]
     files = {"program.json": program.to_json(), "report.json": json.dumps(report.to_dict(), indent=1) + "\n"}
+    if case.target is not None:
+        record["fit"], files["fitted.json"] = _fit(shape, program, case)
     return record, files
+
+
+def _fit(shape: ShapeGraph, program: Program, case: Case) -> tuple[dict[str, Any], str]:
+    """Fit the case's program to its target (parsel-fit): the record's ``fit`` and ``fitted.json``."""
+    try:
+        from parsel_fit.fit import fit_program, fitted_program
+        from parsel_fit.targets import load_target
+    except ImportError as exc:
+        raise CaseError(f"case {case.id}: a 'target' needs the parsel-fit plugin ({exc})") from None
+    result = fit_program(shape, program, load_target(case.target))
+    fitted = fitted_program(program, result, case.target, timings=False)
+    record = {"values": result.values, "distance_before": result.distance_before,
+              "distance_after": result.distance_after, "evaluations": result.evaluations}
+    return record, fitted.to_json()
 
 
 def error_summary(exc: BaseException) -> dict[str, Any]:

@@ -41,14 +41,13 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw a filmstrip of SHAPE edited by PROGRAM across a parameter's range."""
-    from parsel_core.drawing import picture_format
     from parsel_core.errors import ParselError
     from parsel_core.loading import load_program, load_shape, parse_assignments
     from parsel_view.inputs import program_path
-    from parsel_view.render import draw_filmstrip
+    from parsel_view.render import draw_filmstrip, filmstrip_format
 
     output = Path(args.output)
-    picture_format(output)  # before loading anything: fail fast on a typo
+    filmstrip_format(output)  # before loading anything: fail fast on a typo
     if not output.parent.is_dir():
         raise ParselError(f"{output}: output directory {output.parent} does not exist")
     path = program_path(args.program)
@@ -76,10 +75,11 @@ def register(subparsers) -> None:
     p.add_argument("--verbose", action="store_true", help="log every request")
     p.set_defaults(func=cmd_view)
 
-    p = subparsers.add_parser("render", help="a filmstrip picture of the edited shape across a parameter's range")
+    p = subparsers.add_parser("render", help="a filmstrip picture (or a .gif animation) of the edited shape across "
+                                             "a parameter's range")
     p.add_argument("shape", help="shape file or example name")
     p.add_argument("program", help="program file (.json or text form) or an OUTDIR of parsel edit")
-    p.add_argument("-o", "--output", required=True, help="picture file: .png, .svg or .pdf")
+    p.add_argument("-o", "--output", required=True, help="picture file: .png, .svg or .pdf; .gif for an animation")
     p.add_argument("--frames", type=int, default=5, help="number of parameter values (default 5)")
     p.add_argument("--param", metavar="NAME", help="parameter to sweep (default: the first)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="value of another parameter (repeatable)")

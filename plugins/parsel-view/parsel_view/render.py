@@ -4,6 +4,9 @@ Parts with meshes are drawn deformed by the ``cage`` deformer; parts without are
 as their filled hexahedra. All triangles of a frame go into one ``Poly3DCollection``,
 so matplotlib's depth sort works across parts, and each is shaded by its normal so the
 shape reads as a solid. Colours are the labels' colours of ``parsel inspect --png``.
+A ``.gif`` path gives an animation instead of a strip: one picture per parameter value,
+played forwards then backwards so the loop has no jump (encoded by Pillow, which
+matplotlib already depends on; no external binary).
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.drawing import picture_format
+from parsel_core.drawing import PICTURE_FORMATS
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
@@ -24,6 +27,10 @@ from parsel_core.io import atomic_write_bytes
 from parsel_core.program import Evaluation, Program, evaluate
 
 MAX_FRAMES = 24
+#: What ``parsel render`` writes, by suffix: the strip's picture formats and the animation.
+FILMSTRIP_FORMATS = {**PICTURE_FORMATS, ".gif": "gif"}
+#: Milliseconds per animation frame.
+GIF_FRAME_MS = 120
 LIGHT = np.array([0.35, 0.85, 0.55]) / np.linalg.norm([0.35, 0.85, 0.55])
 
 
@@ -74,6 +81,15 @@ def frame_geometry(shape: ShapeGraph, evaluation: Evaluation, remesh: bool = Fal
     return FrameGeometry(np.concatenate(triangles) if triangles else np.zeros((0, 3, 3)), labels)
 
 
+def filmstrip_format(path: Path) -> str:
+    """The format a filmstrip path's suffix asks for (a picture format or ``gif``)."""
+    suffix = path.suffix.lower()
+    if suffix not in FILMSTRIP_FORMATS:
+        raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
+                          f"(known: {', '.join(sorted(FILMSTRIP_FORMATS))})")
+    return FILMSTRIP_FORMATS[suffix]
+
+
 def _shaded(colours: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     length = np.linalg.norm(normals, axis=1, keepdims=True)
@@ -95,7 +111,7 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     its format comes from the suffix (``.png``, ``.svg``, ``.pdf``).
     """
     path = Path(path)
-    fmt = picture_format(path)
+    fmt = filmstrip_format(path)
     if path.is_dir():
         raise ParselError(f"{path}: is a directory")
     if not path.parent.is_dir():
@@ -123,7 +139,6 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     matplotlib.use("Agg")
     from matplotlib import pyplot as plt
     from matplotlib.patches import Patch
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     from parsel_core.drawing import label_colours
 
@@ -131,31 +146,76 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     points = np.concatenate([g.triangles.reshape(-1, 3) for g in geometries if len(g.triangles)])
     points = points[np.all(np.isfinite(points), axis=1)]
     lo, hi = points.min(axis=0), points.max(axis=0)
-    mid, radius = (lo + hi) / 2, float((hi - lo).max()) / 2 or 1.0
+    view = (lo + hi) / 2, float((hi - lo).max()) / 2 or 1.0
+    handles = [Patch(color=colour, label=label) for label, colour in colours.items()]
+    title = f"{shape.name}{' (watertight remesh)' if remesh else ''}"
+    if fmt == "gif":
+        pictures = []
+        for x, geometry in zip(xs, geometries):
+            figure = plt.figure(figsize=(3.6, 3.8), dpi=dpi)
+            _draw_frame(figure.add_subplot(projection="3d"), geometry, colours, view, f"{swept.name} = {x:.3g}")
+            figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 4), fontsize=7,
+                          frameon=False)
+            figure.suptitle(title, fontsize=10)
+            figure.subplots_adjust(left=0, right=1, top=0.9, bottom=0.12)
+            pictures.append(_figure_rgb(figure))
+            plt.close(figure)
+        atomic_write_bytes(path, gif_bytes(pictures))
+        return path
     # Frames side by side with no gaps, each 3D box zoomed to fill its cell; the title sits
     # in the top-left corner and each frame's value under its model, so nothing collides.
     figure = plt.figure(figsize=(2.6 * frames, 3.3), dpi=dpi)
     width = 1.0 / frames
     for i, (x, geometry) in enumerate(zip(xs, geometries)):
         ax = figure.add_axes((i * width, 0.17, width, 0.78), projection="3d")
-        rgba = np.array([colours.get(label, (0.6, 0.6, 0.6, 1.0)) for label in geometry.labels]).reshape(-1, 4)
-        view = geometry.triangles[..., [0, 2, 1]]  # y up: plot (x, z, y)
-        collection = Poly3DCollection(view, facecolors=_shaded(rgba, geometry.triangles), edgecolors="none",
-                                      linewidths=0)
-        ax.add_collection3d(collection)
-        ax.set_xlim(mid[0] - radius, mid[0] + radius)
-        ax.set_ylim(mid[2] - radius, mid[2] + radius)
-        ax.set_zlim(mid[1] - radius, mid[1] + radius)
-        ax.set_box_aspect((1, 1, 1), zoom=FRAME_ZOOM)
-        ax.view_init(elev=18, azim=-60)
-        ax.set_axis_off()
+        _draw_frame(ax, geometry, colours, view, None, zoom=FRAME_ZOOM)
         figure.text((i + 0.5) * width, 0.17, f"{swept.name} = {x:.3g}", ha="center", va="top", fontsize=9)
-    handles = [Patch(color=colour, label=label) for label, colour in colours.items()]
     figure.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8), fontsize=7, frameon=False)
-    figure.text(0.006, 0.985, f"{shape.name}{' (watertight remesh)' if remesh else ''}", ha="left", va="top",
-                fontsize=10)
+    figure.text(0.006, 0.985, title, ha="left", va="top", fontsize=10)
     buffer = io.BytesIO()
     figure.savefig(buffer, format=fmt)
     plt.close(figure)
     atomic_write_bytes(path, buffer.getvalue())
     return path
+
+
+def _draw_frame(ax, geometry: FrameGeometry, colours: Mapping[str, tuple], view: tuple[np.ndarray, float],
+                title: str | None, zoom: float = 1.0) -> None:
+    """One frame on a 3D axis; ``view`` (centre, radius) is shared by all frames so motion shows."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    mid, radius = view
+    rgba = np.array([colours.get(label, (0.6, 0.6, 0.6, 1.0)) for label in geometry.labels]).reshape(-1, 4)
+    drawn = geometry.triangles[..., [0, 2, 1]]  # y up: plot (x, z, y)
+    ax.add_collection3d(Poly3DCollection(drawn, facecolors=_shaded(rgba, geometry.triangles), edgecolors="none",
+                                         linewidths=0))
+    ax.set_xlim(mid[0] - radius, mid[0] + radius)
+    ax.set_ylim(mid[2] - radius, mid[2] + radius)
+    ax.set_zlim(mid[1] - radius, mid[1] + radius)
+    ax.set_box_aspect((1, 1, 1), zoom=zoom)
+    ax.view_init(elev=18, azim=-60)
+    ax.set_axis_off()
+    if title:
+        ax.set_title(title, fontsize=9)
+
+
+def _figure_rgb(figure) -> np.ndarray:
+    """The figure rendered by Agg, as an (h, w, 3) uint8 array."""
+    figure.canvas.draw()
+    return np.asarray(figure.canvas.buffer_rgba())[..., :3].copy()
+
+
+def gif_bytes(pictures: list[np.ndarray], frame_ms: int = GIF_FRAME_MS) -> bytes:
+    """An endlessly looping GIF of ``pictures`` played forwards then backwards (no jump at the loop).
+
+    All frames share one adaptive palette, so colours do not flicker from frame to frame."""
+    from PIL import Image
+
+    order = pictures + pictures[-2:0:-1] if len(pictures) > 2 else list(pictures)
+    images = [Image.fromarray(p) for p in order]
+    palette = Image.fromarray(np.concatenate(pictures, axis=0)).quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+    frames = [image.quantize(palette=palette, dither=Image.Dither.NONE) for image in images]
+    buffer = io.BytesIO()
+    frames[0].save(buffer, format="GIF", save_all=True, append_images=frames[1:], duration=frame_ms, loop=0,
+                   disposal=1, optimize=False)
+    return buffer.getvalue()

@@ -82,8 +82,8 @@ def test_bad_inputs_give_one_line_errors_and_no_files(outdir, tmp_path, capsys):
                    r"program\.json: does not match shape 'table': op 0 \(scale_1d\): shape 'table' has no part 'seat'")
     one_line_error(["view", str(outdir), "--shape", "nosuchshape", "--html", str(tmp_path / "a.html")], capsys,
                    r"nosuchshape")
-    one_line_error(["render", "chair", str(outdir), "-o", str(tmp_path / "strip.gif")], capsys,
-                   r"strip\.gif: unknown picture format '\.gif'")
+    one_line_error(["render", "chair", str(outdir), "-o", str(tmp_path / "strip.bmp")], capsys,
+                   r"strip\.bmp: unknown picture format '\.bmp'")
     one_line_error(["render", "chair", str(outdir), "-o", str(tmp_path / "nodir" / "strip.png")], capsys,
                    r"nodir does not exist")
     one_line_error(["render", "table", str(outdir), "-o", str(tmp_path / "strip.png")], capsys,

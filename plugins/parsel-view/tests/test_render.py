@@ -91,3 +91,26 @@ def test_frames_fill_their_cells_and_labels_do_not_collide(chair, tmp_path):
     title_rows = np.flatnonzero(ink[: int(0.06 * height), :].any(axis=1))
     title_columns = np.flatnonzero(ink[: int(0.06 * height), :].any(axis=0))
     assert len(title_rows) and title_columns[-1] < 0.1 * width  # only the title, at the left
+
+
+def test_gif_filmstrip_frames_move(chair, tmp_path, capsys):
+    program_path = tmp_path / "wide.parsel"
+    program_path.write_text(CHAIR_PROGRAM, encoding="utf-8")
+    out = tmp_path / "strip.gif"
+    assert main(["render", "chair", str(program_path), "-o", str(out), "--frames", "4"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    image = Image.open(out)
+    assert image.format == "GIF" and image.n_frames == 6  # 4 forwards, 2 back (ends not repeated)
+    assert image.info["loop"] == 0 and image.info["duration"] == 120
+    frames = []
+    for i in range(image.n_frames):
+        image.seek(i)
+        frames.append(np.asarray(image.convert("RGB"), dtype=int))
+    assert np.abs(frames[0] - frames[3]).sum() > 0  # the shape moves between the ends of the range
+    assert np.array_equal(frames[2], frames[4])  # played back: frame 4 repeats frame 2
+    assert [p.name for p in tmp_path.iterdir() if p.name != "wide.parsel"] == ["strip.gif"]
+
+
+def test_unknown_filmstrip_format_fails_before_loading(tmp_path, capsys):
+    assert main(["render", "chair", "missing.json", "-o", str(tmp_path / "strip.mp4")]) == 2
+    assert "unknown picture format '.mp4' (known: .gif, .pdf, .png, .svg)" in capsys.readouterr().err

@@ -1,0 +1,51 @@
+"""``parsel fit SHAPE PROGRAM TARGET -o fitted.json`` (registered through ``parsel_register_commands``)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    """Fit PROGRAM's parameters so SHAPE edited by it comes closest to TARGET; write the fitted program."""
+    from parsel_core.errors import ParselError
+    from parsel_core.io import atomic_write_text
+    from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_fit.fit import fit_program, fitted_program
+    from parsel_fit.targets import load_target
+
+    output = Path(args.output)
+    if output.suffix.lower() != ".json":
+        raise ParselError(f"{output}: the fitted program is written as JSON (.json)")
+    if not output.parent.is_dir():
+        raise ParselError(f"{output}: output directory {output.parent} does not exist")
+    if args.starts < 1 or args.samples < 16:
+        raise ParselError("--starts must be at least 1 and --samples at least 16")
+    shape = load_shape(args.shape)
+    program = load_program(args.program)
+    target = load_target(args.target, count=args.samples * 2, seed=args.seed + 1)
+    result = fit_program(shape, program, target, starts=args.starts, samples=args.samples, seed=args.seed,
+                         fixed=parse_assignments(args.set))
+    atomic_write_text(output, fitted_program(program, result, args.target).to_json())
+    size = shape.size or 1.0
+    print(f"Chamfer distance: {result.distance_before:.5g} at the defaults -> {result.distance_after:.5g} fitted "
+          f"({result.distance_after / size:.3%} of the diagonal); {result.evaluations} evaluations, "
+          f"{result.cpu_s:.2f} s CPU")
+    for p in program.parameters:
+        print(f"  {p.name} = {result.values[p.name]:.6g}  (range [{p.lo:g}, {p.hi:g}], was "
+              f"{result.start_values[p.name]:g})")
+    print(output)
+    return 0
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("fit", help="fit a program's parameters to a target mesh, point cloud or shape")
+    p.add_argument("shape", help="shape file or example name")
+    p.add_argument("program", help="program file (.json or text form)")
+    p.add_argument("target", help="target: a mesh (.ply .obj .off .stl .glb), points (.xyz .pts .npy) or a shape")
+    p.add_argument("-o", "--output", required=True, help="the fitted program (.json): fitted values as defaults")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="keep a parameter at this value")
+    p.add_argument("--starts", type=int, default=4, help="optimiser starts (default 4: the defaults + 3 spread)")
+    p.add_argument("--samples", type=int, default=8192, help="surface samples of the edited shape (default 8192)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
+    p.set_defaults(func=cmd_fit)

@@ -61,9 +61,16 @@ PLUGIN_VERBS: dict[str, tuple[str, list[str]]] = {
     "view": ("Show a program on a page with one slider per parameter, served on 127.0.0.1 or written as "
              "one self-contained HTML file with --html. Several OUTDIRs are stacked.",
              ["parsel view out/", "parsel view out/ --html page.html", "parsel view a/ b/ --shape chair"]),
-    "render": ("Draw a filmstrip of the edited shape across a parameter's range (.png, .svg or .pdf).",
+    "render": ("Draw a filmstrip of the edited shape across a parameter's range (.png, .svg or .pdf), or "
+               "an animation of it (.gif).",
                ["parsel render chair out/program.json -o strip.png",
-                "parsel render chair out/ -o strip.png --frames 7 --remesh"]),
+                "parsel render chair out/ -o strip.png --frames 7 --remesh",
+                "parsel render chair out/program.json -o strip.gif"]),
+    "fit": ("Find the parameter values that bring the edited shape closest to a target (a mesh, a point "
+            "cloud or another shape of the same parts) by Chamfer distance, and write the program with "
+            "them as defaults (docs/fitting.md).",
+            ["parsel fit chair out/program.json scan.ply -o fitted.json",
+             "parsel fit chair out/program.json target.shape.json -o fitted.json --starts 8 --points 4096"]),
     "eval": ("Score programs against ground truth for the cases of CASES.jsonl (docs/evaluation.md).",
              ["parsel eval cases.jsonl", "parsel eval cases.jsonl --json --workers 2"]),
     "batch": ("Run many cases resumably on local processes or a Dask cluster (docs/evaluation.md).",

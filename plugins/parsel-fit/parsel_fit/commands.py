@@ -19,12 +19,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
         raise ParselError(f"{output}: the fitted program is written as JSON (.json)")
     if not output.parent.is_dir():
         raise ParselError(f"{output}: output directory {output.parent} does not exist")
-    if args.starts < 1 or args.samples < 16:
-        raise ParselError("--starts must be at least 1 and --samples at least 16")
+    if args.starts < 1 or args.points < 16:
+        raise ParselError("--starts must be at least 1 and --points at least 16")
     shape = load_shape(args.shape)
     program = load_program(args.program)
-    target = load_target(args.target, count=args.samples * 2, seed=args.seed + 1)
-    result = fit_program(shape, program, target, starts=args.starts, samples=args.samples, seed=args.seed,
+    target = load_target(args.target, count=args.points * 2, seed=args.seed + 1)
+    result = fit_program(shape, program, target, starts=args.starts, samples=args.points, seed=args.seed,
                          fixed=parse_assignments(args.set))
     atomic_write_text(output, fitted_program(program, result, args.target).to_json())
     size = shape.size or 1.0
@@ -46,6 +46,7 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", required=True, help="the fitted program (.json): fitted values as defaults")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="keep a parameter at this value")
     p.add_argument("--starts", type=int, default=4, help="optimiser starts (default 4: the defaults + 3 spread)")
-    p.add_argument("--samples", type=int, default=8192, help="surface samples of the edited shape (default 8192)")
+    p.add_argument("--points", type=int, default=8192,
+                   help="surface points sampled on the edited shape (default 8192)")
     p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
     p.set_defaults(func=cmd_fit)

@@ -112,7 +112,7 @@ def test_fit_command_writes_the_fitted_program(tmp_path, capsys):
     np.savetxt(tmp_path / "target.xyz", _target(shape, program, {"x": 0.4}, noise=0.002))
     out = tmp_path / "fitted.json"
     assert main(["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "-o", str(out),
-                 "--samples", "2048"]) == 0
+                 "--points", "2048"]) == 0
     printed = capsys.readouterr().out
     assert "Chamfer distance:" in printed and "at the defaults ->" in printed
     assert "(range [0, 0.5], was 0.25)" in printed

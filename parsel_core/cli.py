@@ -9,12 +9,19 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from parsel_core import __version__
+from parsel_core.config import check_limit
 from parsel_core.errors import ParselError
+from parsel_core.outputs import check_output_dir, write_outdir
 
 
 def _add_backend(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", metavar="NAME",
                         help="CAS backend (default: $PARSEL_CAS_BACKEND, parsel.toml, else the fastest installed)")
+
+
+def _add_force(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true",
+                        help="write into an OUTDIR holding other files (only parsel's own files are replaced)")
 
 
 def cmd_plugins(args: argparse.Namespace) -> int:
@@ -136,7 +143,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         main(["view", str(output), "--html", str(output / "slider.html"), "--no-browser"])
     if "render" in commands:
         main(["render", name, str(output / "program.json"), "-o", str(output / "strip.png")])
-    print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir()))} in {output}/")
+    print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir() if not p.name.startswith('.')))} "
+          f"in {output}/")
     return 0
 
 
@@ -236,46 +244,6 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
-def write_outdir(outdir: str, files: dict[str, str]) -> None:
-    """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
-    import os
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    target = Path(outdir)
-    parent = target.resolve().parent
-    if not parent.is_dir():
-        raise ParselError(f"{outdir}: parent directory {parent} does not exist")
-    if target.exists() and not target.is_dir():
-        raise ParselError(f"{outdir}: exists and is not a directory")
-    try:
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
-    except OSError as exc:
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    try:
-        for name, text in files.items():
-            (staging / name).write_text(text, encoding="utf-8")
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
-            os.replace(target, old / "previous")
-            try:
-                os.replace(staging, target)
-            except BaseException:
-                os.replace(old / "previous", target)  # put the previous OUTDIR back
-                shutil.rmtree(old, ignore_errors=True)
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(staging, target)
-    except OSError as exc:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
-
-
 def cmd_edit(args: argparse.Namespace) -> int:
     """A request in words (language layer) or a seed edit (expert mode) -> a complete program."""
     import time
@@ -288,6 +256,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
 
     if args.seed is None and not args.request:
         raise ParselError('parsel edit needs a request in words or --seed "<op>" (expert mode)')
+    check_output_dir(args.output, args.force)
     solver = get_named("solver", solvers(), args.solver)
     get_cas_backend(args.backend)  # fail early on an unknown backend
     started = time.perf_counter()
@@ -334,7 +303,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     if inference is not None:
         report.extra["language"] = inference.summary()
     files.update({"program.json": program.to_json(), "report.json": json.dumps(report.to_dict(), indent=1) + "\n"})
-    write_outdir(args.output, files)
+    write_outdir(args.output, files, args.force)
     counts = report.counts()
     print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
           f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
@@ -392,6 +361,7 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     from parsel_core.loading import load_shape
     from parsel_core.report import check_each_parameter, check_program
 
+    check_output_dir(args.output, args.force)
     shape = load_shape(args.shape)
     proposal = proxydural_requests(shape, count=args.count, provider=args.provider, model=args.model)
     records = list(proposal.record)
@@ -415,7 +385,7 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     report.extra.update({"shape": shape.name, "requests": used, "skipped": skipped, "per_slider": per_slider})
     write_outdir(args.output, {"program.json": composed.to_json(),
                                "report.json": json.dumps(report.to_dict(), indent=1) + "\n",
-                               "record.jsonl": _records_jsonl(records)})
+                               "record.jsonl": _records_jsonl(records)}, args.force)
     counts = report.counts()
     print(f"{len(used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in used)}); relations: "
           f"{counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken "
@@ -433,6 +403,7 @@ def cmd_variations(args: argparse.Namespace) -> int:
     from parsel_core.loading import load_shape
     from parsel_core.report import check_program
 
+    check_output_dir(args.output, args.force)
     shape = load_shape(args.shape)
     proposal = variation_requests(shape, args.request, count=args.count, provider=args.provider, model=args.model)
     records = list(proposal.record)
@@ -457,7 +428,7 @@ def cmd_variations(args: argparse.Namespace) -> int:
     files["variations.json"] = json.dumps({"request": args.request, "shape": shape.name, "variants": summary},
                                           indent=1) + "\n"
     files["record.jsonl"] = _records_jsonl(records)
-    write_outdir(args.output, files)
+    write_outdir(args.output, files, args.force)
     for item in summary:
         if "program" in item:
             c = item["counts"]
@@ -557,6 +528,7 @@ def cmd_apply(args: argparse.Namespace) -> int:
     if args.sweep is not None:
         if args.sweep < 2:
             raise ParselError("--sweep needs at least 2 steps")
+        check_limit("max_sweep", "--sweep", args.sweep)
         if not program.parameters:
             raise ParselError(f"{args.program}: the program has no parameter to sweep")
         name = program.parameters[0]
@@ -644,6 +616,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
+    _add_force(p)
     _add_backend(p)
     p.set_defaults(func=cmd_edit)
 
@@ -657,6 +630,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
             p.add_argument("request", help="the edit request the variants keep")
         p.add_argument("-n", "--count", type=int, default=5 if name == "proxydural" else 3)
         p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
+        _add_force(p)
         p.add_argument("--provider", default="offline")
         p.add_argument("--model")
         p.add_argument("--api-base")

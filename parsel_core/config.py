@@ -8,8 +8,10 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -52,3 +54,65 @@ def default_backend_name(installed: list[str]) -> str:
     if installed:
         return sorted(installed)[0]
     raise ParselError("no CAS backend is installed (install parsel-sympy or parsel-symengine)")
+
+
+# -- limits -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A bound on input size, checked before the expensive work starts."""
+
+    name: str
+    default: float
+    what: str
+
+
+#: Every limit parsel enforces (README, "Limits"). Raise one with ``[parsel] <name> = N`` in
+#: parsel.toml or the environment variable ``PARSEL_<NAME>``; the defaults keep one command's
+#: memory to a few GiB at most (benchmarks/fuzz.py prints the peak).
+LIMITS: dict[str, Limit] = {limit.name: limit for limit in (
+    Limit("max_file_mb", 200, "size of a shape, program or cases file, in MiB"),
+    Limit("max_parts", 2000, "parts in one shape"),
+    Limit("max_faces", 2_000_000, "triangles in one shape file (all parts together)"),
+    Limit("max_vertices", 2_000_000, "vertices in one shape file (all parts together)"),
+    Limit("max_ops", 2000, "ops in one program"),
+    Limit("max_program_lines", 20_000, "lines of a text program or ShapeAssembly program"),
+    Limit("max_expression_chars", 2000, "characters in one amount expression"),
+    Limit("max_expression_depth", 64, "nesting depth of one amount expression"),
+    Limit("max_instances", 1000, "instances of one symmetry group after ChangeCount / ChangeDelta"),
+    Limit("max_samples", 10_000, "parameter samples of a relation check (check --samples)"),
+    Limit("max_sweep", 1000, "files one apply --sweep writes"),
+    Limit("max_magnitude", 1e6, "absolute value of a coordinate, size or amount (in shape units)"),
+)}
+
+
+def limit(name: str) -> float:
+    """The value of a limit: ``PARSEL_<NAME>``, else parsel.toml, else its default."""
+    entry = LIMITS[name]
+    env = f"PARSEL_{name.upper()}"
+    raw: Any = os.environ.get(env)
+    where = env
+    if raw is None:
+        raw = load_settings().get(name, entry.default)
+        where = f"{config_path()}: [parsel] {name}"
+    try:
+        value = float(raw)
+    except (TypeError, ValueError, OverflowError):
+        raise ParselError(f"{where} must be a positive number, not {raw!r}") from None
+    if isinstance(raw, bool) or not math.isfinite(value) or value <= 0:
+        raise ParselError(f"{where} must be a positive number, not {raw!r}")
+    return value
+
+
+def over_limit(name: str, what: str, value: float) -> ParselError:
+    """The one-line error for ``what`` exceeding limit ``name``, saying how to raise it."""
+    bound = limit(name)
+    return ParselError(f"{what}: {value:g} is over the limit {name} = {bound:g} (raise it with "
+                       f"PARSEL_{name.upper()} or [parsel] {name} in parsel.toml)")
+
+
+def check_limit(name: str, what: str, value: float) -> None:
+    """Raise the one-line error when ``value`` exceeds limit ``name``."""
+    if not value <= limit(name):  # also refuses NaN
+        raise over_limit(name, what, value)

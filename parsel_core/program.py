@@ -45,7 +45,7 @@ class Parameter:
             raise ProgramFormatError(f"parameter name {self.name!r} must be an identifier (not pi or e)")
         for key in ("lo", "hi"):
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
                 raise ProgramFormatError(f"parameter {self.name!r}: {key} must be a finite number, got {value!r}")
             object.__setattr__(self, key, float(value))
         if self.lo > self.hi:
@@ -73,6 +73,13 @@ class Parameter:
         return np.concatenate([[self.lo, self.hi], inner])[:count]
 
 
+def _finite(value: int | float) -> bool:
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer beyond any float
+        return False
+
+
 @dataclass(frozen=True)
 class Program:
     """Ordered edit ops and the parameters their amounts use. Programs stack with ``then``."""
@@ -93,6 +100,28 @@ class Program:
             if unknown:
                 raise ProgramFormatError(f"op {i} ({op.name} on {op.operand!r}): amount {op.amount!r} uses "
                                          f"undeclared parameter(s) {', '.join(unknown)}")
+
+    def check_numbers(self, source: str = "<program>") -> None:
+        """Refuse what a file or a model could slip in: too many ops, coordinates or ranges
+        beyond ``max_magnitude``, amounts that are not finite over their parameters' ranges."""
+        from parsel_core.config import check_limit, limit
+        from parsel_core.expressions import check_finite
+
+        check_limit("max_ops", f"{source}: ops", len(self.ops))
+        bound = limit("max_magnitude")
+        for p in self.parameters:
+            if max(abs(p.lo), abs(p.hi)) > bound:
+                raise ProgramFormatError(f"{source}: parameter {p.name!r}: range [{p.lo:g}, {p.hi:g}] is over the "
+                                         f"limit max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
+        ranges = {p.name: (p.lo, p.hi) for p in self.parameters}
+        for i, op in enumerate(self.ops):
+            where = f"{source}: op {i} ({op.name} on {op.operand!r})"
+            for key, value in op.params().items():
+                values = value if isinstance(value, tuple) else (value,)
+                if any(isinstance(v, (int, float)) and not abs(v) <= bound for v in values):
+                    raise ProgramFormatError(f"{where}: {key} {value!r} is over the limit max_magnitude = "
+                                             f"{bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
+            check_finite(parse_expression(op.amount), ranges, f"{where}: amount")
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -218,14 +247,19 @@ class Program:
         ops_data = data.get("ops")
         if not isinstance(ops_data, list):
             raise ProgramFormatError(f"{source}: field 'ops' must be a list")
+        from parsel_core.config import check_limit
+
+        check_limit("max_ops", f"{source}: ops", len(ops_data))  # before building any
         ops = [op_from_dict(item, registry, where=f"{source}: ops[{i}]") for i, item in enumerate(ops_data)]
         metadata = data.get("metadata", {})
         if not isinstance(metadata, Mapping):
             raise ProgramFormatError(f"{source}: field 'metadata' must be an object")
         try:
-            return cls(tuple(ops), tuple(params), dict(metadata))
+            program = cls(tuple(ops), tuple(params), dict(metadata))
         except ProgramFormatError as exc:
             raise ProgramFormatError(f"{source}: {exc}") from None
+        program.check_numbers(source)
+        return program
 
     @classmethod
     def from_json(cls, text: str, registry: Mapping[str, type[EditOp]] | None = None,
@@ -235,6 +269,8 @@ class Program:
         except json.JSONDecodeError as exc:
             raise ProgramFormatError(f"{source}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") \
                 from None
+        except (ValueError, RecursionError) as exc:  # a number too long to convert, nesting too deep
+            raise ProgramFormatError(f"{source}: not usable JSON: {type(exc).__name__}") from None
         return cls.from_dict(data, registry, source)
 
     def to_text(self) -> str:

@@ -83,6 +83,10 @@ def shape_from_meshes(meshes: Mapping[str, Any] | Sequence[tuple[str, Any]], *, 
     where = source or name
     if not items:
         raise ParselError(f"{where}: {NO_NAMED_PARTS}")
+    from parsel_core.config import check_limit
+
+    check_limit("max_parts", f"{where}: parts", len(items))
+    check_limit("max_faces", f"{where}: faces", sum(len(getattr(m, "faces", ())) for _, m in items))
     names = [n for n, _ in items]
     if len(set(names)) != len(names):
         twice = sorted({n for n in names if names.count(n) > 1}, key=natural_key)
@@ -105,6 +109,10 @@ def read_scene(path: Path) -> NamedMeshes:
     """
     import trimesh
 
+    if path.suffix.lower() in (".glb", ".gltf"):
+        from parsel_mesh.gltf_check import check_gltf
+
+        check_gltf(path)  # cycles, non-finite transforms and sizes, before trimesh walks it
     try:
         scene = trimesh.load(str(path), force="scene", process=False)
     except Exception as exc:  # trimesh raises many types for malformed files
@@ -166,6 +174,7 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
     counts = {"v": 0, "vt": 0, "vn": 0}
     obj = group = material = None
     declared: list[str] = []  # object names in file order
+    runs: list[str] = []  # object names as their blocks start
     for line in text.split("\n"):
         key, rest = (line.split(None, 1) + ["", ""])[:2]
         rest = rest.strip()
@@ -175,6 +184,8 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
                 counts[key] += 1
         elif key == "o":
             obj = rest or None
+            if obj is not None:
+                runs.append(obj)
             if obj is not None and obj not in declared:
                 declared.append(obj)
         elif key == "g":
@@ -193,6 +204,9 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
         empty = [name for name in declared if name not in objects]
         if empty:
             raise ValueError(f"part {empty[0]!r} has no faces")
+        twice = sorted({name for name in runs if runs.count(name) > 1})
+        if twice:
+            raise ValueError(f"duplicate part name(s) {', '.join(map(repr, twice))} (two 'o' blocks of one name)")
     orphans = sum(1 for f in faces if f[column] is None)
     if orphans:
         raise ValueError(f"{orphans} face(s) come before the first '{directive}' line and belong to no part")
@@ -217,9 +231,13 @@ def read_obj(path: Path) -> NamedMeshes:
     """
     import trimesh
 
+    from parsel_core.config import check_limit
+
     try:
         text = path.read_bytes().decode("utf-8", errors="replace")
         shared, parts = split_obj(text)
+        check_limit("max_vertices", f"{path}: vertices", sum(line.startswith("v ") for line in shared))
+        check_limit("max_faces", f"{path}: faces", sum(len(lines) for lines in parts.values()))
     except OSError as exc:
         raise ParselError(f"{path}: cannot read: {exc.strerror}") from None
     except ValueError as exc:

@@ -244,6 +244,15 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
+def check_tau(tau: float | None) -> None:
+    """``--tau``: the parameter range [0, tau] must be a finite, positive span of sane size."""
+    from parsel_core.config import limit
+
+    if tau is not None and not 1e-6 <= tau <= limit("max_magnitude"):
+        raise ParselError(f"--tau {tau!r}: the parameter range [0, tau] needs tau from 1e-06 to "
+                          f"{limit('max_magnitude'):g} (max_magnitude)")
+
+
 def cmd_edit(args: argparse.Namespace) -> int:
     """A request in words (language layer) or a seed edit (expert mode) -> a complete program."""
     import time
@@ -257,6 +266,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     if args.seed is None and not args.request:
         raise ParselError('parsel edit needs a request in words or --seed "<op>" (expert mode)')
     check_output_dir(args.output, args.force)
+    check_tau(args.tau)
     solver = get_named("solver", solvers(), args.solver)
     get_cas_backend(args.backend)  # fail early on an unknown backend
     started = time.perf_counter()

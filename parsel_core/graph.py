@@ -64,6 +64,10 @@ class ShapeGraph:
         self.source = source
         self.metadata = dict(metadata or {})
         self.parts: dict[str, Part] = {}
+        parts = list(parts)
+        from parsel_core.config import check_limit
+
+        check_limit("max_parts", f"shape {name!r}: parts", sum(not p.virtual for p in parts))  # before detection
         for part in parts:
             if part.virtual:
                 continue

@@ -47,7 +47,7 @@ class Parameter:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
                 raise ProgramFormatError(f"parameter {self.name!r}: {key} must be a finite number, got {value!r}")
-            object.__setattr__(self, key, float(value))
+            object.__setattr__(self, key, float(value) + 0.0)  # + 0.0: no -0.0 end
         if self.lo > self.hi:
             raise ProgramFormatError(f"parameter {self.name!r}: range [{self.lo}, {self.hi}] is empty")
         default = self.lo if self.default is None else self.default
@@ -69,7 +69,8 @@ class Parameter:
     def samples(self, count: int, seed: int = 0) -> np.ndarray:
         """``count`` values: both ends of the range and uniform random ones between."""
         rng = np.random.default_rng(seed)
-        inner = rng.uniform(self.lo, self.hi, size=max(count - 2, 0))
+        inner = rng.uniform(self.lo, self.hi, size=max(count - 2, 0)) if self.hi > self.lo else \
+            np.full(max(count - 2, 0), self.lo)
         return np.concatenate([[self.lo, self.hi], inner])[:count]
 
 

@@ -149,8 +149,8 @@ def check_gltf(path: Path) -> None:
     if not isinstance(doc, dict):
         raise ParselError(f"{path}: glTF JSON must be an object")
     nodes = _list(doc, "nodes", path)
-    check_limit("max_parts", f"{path}: glTF nodes", len(nodes))
     check_node_graph(nodes, path)
+    check_limit("max_parts", f"{path}: glTF nodes with a mesh", sum(isinstance(n, dict) and "mesh" in n for n in nodes))
     check_transforms(nodes, path)
     for s, scene in enumerate(_list(doc, "scenes", path)):
         roots = scene.get("nodes", []) if isinstance(scene, dict) else None

@@ -236,6 +236,7 @@ def read_obj(path: Path) -> NamedMeshes:
     try:
         text = path.read_bytes().decode("utf-8", errors="replace")
         shared, parts = split_obj(text)
+        check_limit("max_parts", f"{path}: parts", len(parts))  # each part is read on its own: check first
         check_limit("max_vertices", f"{path}: vertices", sum(line.startswith("v ") for line in shared))
         check_limit("max_faces", f"{path}: faces", sum(len(lines) for lines in parts.values()))
     except OSError as exc:
@@ -275,6 +276,9 @@ def _part_names(comments: Sequence[str], path: Path) -> dict[int, str]:
 def _split_tagged(path: Path, mesh: Any, tags: np.ndarray, names: Mapping[int, str]) -> NamedMeshes:
     """One mesh per declared part from a merged mesh and per-face part indices."""
     tags = np.asarray(tags).astype(np.int64).ravel()
+    faces = np.asarray(mesh.faces)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(mesh.vertices)):
+        raise ParselError(f"{path}: faces index missing vertices (a vertex index past the end)")
     if len(tags) != len(mesh.faces):
         raise ParselError(f"{path}: {len(tags)} part indices for {len(mesh.faces)} faces "
                           f"(part-tagged files must be triangles)")

@@ -29,26 +29,28 @@ TRIANGLE_MODES = {4: 3, 5: 1, 6: 1}
 
 def gltf_json(path: Path) -> Any:
     """The JSON document of a ``.glb`` (its first chunk) or a ``.gltf`` file."""
+    kind = path.suffix.lower().lstrip(".").upper()
     try:
         with open(path, "rb") as handle:
             head = handle.read(20)
-            if path.suffix.lower() == ".gltf" or head[:4] != GLB_MAGIC:
+            if kind == "GLTF":
                 text = head + handle.read()
             else:
-                if len(head) < 20:
-                    raise ParselError(f"{path}: truncated GLB header")
+                if len(head) < 20 or head[:4] != GLB_MAGIC:
+                    raise ParselError(f"{path}: cannot read GLB file: no GLB header ('glTF' and version)")
                 _, _, _, chunk_length, chunk_type = struct.unpack("<4sIIII", head)
                 if chunk_type != JSON_CHUNK:
-                    raise ParselError(f"{path}: GLB's first chunk is not JSON")
+                    raise ParselError(f"{path}: cannot read GLB file: its first chunk is not JSON")
                 text = handle.read(chunk_length)
                 if len(text) < chunk_length:
-                    raise ParselError(f"{path}: GLB's JSON chunk is cut off")
+                    raise ParselError(f"{path}: cannot read GLB file: its JSON chunk is cut off")
     except OSError as exc:
         raise ParselError(f"{path}: cannot read: {exc.strerror}") from None
     try:
         return json.loads(text.decode("utf-8"))
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
-        raise ParselError(f"{path}: glTF JSON is not readable: {type(exc).__name__}") from None
+        raise ParselError(f"{path}: cannot read {kind} file: its JSON is not readable ({type(exc).__name__})") \
+            from None
 
 
 def _list(doc: dict, key: str, path: Path) -> list:

@@ -222,12 +222,51 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
     return shared, parts
 
 
+_OBJ_INDEXED = ("v", "vt", "vn")
+
+
+def obj_part_chunk(name: str, lines: Sequence[str], tables: Mapping[str, Sequence[str]],
+                   others: Sequence[str]) -> str:
+    """One part as an OBJ of its own: only the vertex data its faces use, renumbered.
+
+    Handing each part the whole file's vertex data would make reading a file of many
+    parts cost parts x vertices; the used entries keep their file order, as trimesh
+    would keep them. Raises ``ValueError`` for an index that is not an entry of the file.
+    """
+    used: dict[str, set[int]] = {kind: set() for kind in _OBJ_INDEXED}
+    faces = [line.split()[1:] if line.startswith("f ") else None for line in lines]
+    for tokens in faces:
+        for token in tokens or ():
+            for k, value in enumerate(token.split("/")[:3]):
+                if value:
+                    index = int(value)
+                    if not 1 <= index <= len(tables[_OBJ_INDEXED[k]]):
+                        raise ValueError(f"face index {index} is not one of the file's {_OBJ_INDEXED[k]} lines")
+                    used[_OBJ_INDEXED[k]].add(index)
+    renumber = {kind: {old: new for new, old in enumerate(sorted(used[kind]), start=1)} for kind in _OBJ_INDEXED}
+    body = []
+    for line, tokens in zip(lines, faces):
+        if tokens is None:
+            body.append(line)
+            continue
+        out = []
+        for token in tokens:
+            fields = token.split("/")
+            for k, value in enumerate(fields[:3]):
+                if value:
+                    fields[k] = str(renumber[_OBJ_INDEXED[k]][int(value)])
+            out.append("/".join(fields))
+        body.append("f " + " ".join(out))
+    data = [tables[kind][old - 1] for kind in _OBJ_INDEXED for old in sorted(used[kind])]
+    return "\n".join([*others, *data, f"o {name}", *body]) + "\n"
+
+
 def read_obj(path: Path) -> NamedMeshes:
     """OBJ objects (or groups) as parts, each read by trimesh with the file's materials.
 
-    Each part is handed to trimesh as the shared vertex data plus its own faces, so the
-    split does not depend on the trimesh version's object / group options; trimesh
-    keeps only the vertices a part's faces use.
+    Each part is handed to trimesh as the vertex data its faces use plus those faces
+    (:func:`obj_part_chunk`), so the split does not depend on the trimesh version's
+    object / group options.
     """
     import trimesh
 
@@ -244,11 +283,12 @@ def read_obj(path: Path) -> NamedMeshes:
     except ValueError as exc:
         raise ParselError(f"{path}: {exc}") from None
     resolver = trimesh.resolvers.FilePathResolver(str(path))
-    header = "\n".join(shared)
+    tables = {kind: [line for line in shared if line.startswith(kind + " ")] for kind in _OBJ_INDEXED}
+    others = [line for line in shared if line.split(" ", 1)[0] not in _OBJ_INDEXED]
     out: NamedMeshes = []
     for name, lines in parts.items():
-        chunk = f"{header}\no {name}\n" + "\n".join(lines) + "\n"
         try:
+            chunk = obj_part_chunk(name, lines, tables, others)
             mesh = trimesh.load(io.BytesIO(chunk.encode("utf-8")), file_type="obj", resolver=resolver,
                                 force="mesh", process=False)
         except Exception as exc:

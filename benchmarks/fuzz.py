@@ -212,7 +212,7 @@ def family_groups(rng: random.Random) -> Iterator[Case]:
 
 def family_structure(rng: random.Random) -> Iterator[Case]:
     """GLB cycles, indices out of range, too many parts, faces or ops, JSON of the wrong type."""
-    kind = rng.randrange(14)
+    kind = rng.randrange(17)
     if kind == 0:
         def cycle(doc):
             doc["nodes"][0]["children"] = [1]
@@ -271,6 +271,33 @@ def family_structure(rng: random.Random) -> Iterator[Case]:
     elif kind == 12:  # deep JSON
         depth = rng.choice([100_000, 10_000])
         yield Case("structure", ["check", "tiny_table", "p.json"], {"p.json": b"[" * depth + b"]" * depth})
+    elif kind == 14:  # PartNet hierarchies: cycles of ids, missing objs, wrong types, deep nesting
+        box = _obj({"p": _box(0, 0, 0)}).replace(b"o p\n", b"")
+        leaf = rng.choice([{"id": 1, "name": "seat", "objs": ["a"]}, {"id": 1, "name": "seat", "objs": ["missing"]},
+                           {"id": 1, "name": "seat\nx", "objs": ["a"]}, {"id": "1", "name": 5, "objs": "a"},
+                           {"id": 1, "name": "seat", "objs": ["../../etc/passwd"]}])
+        tree: object = [{"id": 0, "name": "chair", "objs": ["a", "b"], "children": [
+            leaf, {"id": 2, "name": "leg", "objs": ["b"]}]}]
+        if rng.random() < 0.3:
+            tree = rng.choice([{}, [1, 2], "x", [{"id": 0}]])
+        text = json.dumps(tree).encode()
+        if rng.random() < 0.2:
+            text = b'[{"id": 0, "name": "c", "children": ' * 5000 + b"[]" + b"}]" * 5000
+        yield Case("structure", ["inspect", "pn"], {"pn/result_after_merging.json": text, "pn/objs/a.obj": box,
+                                                   "pn/objs/b.obj": box.replace(b"v 0 ", b"v 3 ")})
+    elif kind == 15:  # parsel.shape JSON with wrong types and numbers at the edge
+        corners = [[float(k & 1), float((k >> 1) & 1), float((k >> 2) & 1)] for k in range(8)]
+        part = {"id": "seat", "label": "seat", "corners": corners}
+        bad = rng.choice([{"version": True}, {"parts": {"a": 1}}, {"parts": [{**part, "corners": [[1e308] * 3] * 8}]},
+                          {"parts": [{**part, "id": ["x"]}]}, {"parts": [{**part, "corners": [[0, 0]] * 8}]},
+                          {"relations": [{"kind": "reflection", "members": ["seat"]}]}, {"parts": None},
+                          {"parts": [part, part]}, {"name": {"a": 1}}])
+        data = {"format": "parsel.shape", "version": 1, "name": "s", "parts": [part], "relations": []}
+        data.update(bad)
+        text = json.dumps(data)
+        if "1e308" in rng.choice(["", "1e308"]):
+            text = text.replace("1.0", "1" + "0" * 400, 1)
+        yield Case("structure", ["inspect", "s.shape.json"], {"s.shape.json": text.encode()})
     else:  # a sidecar of the wrong shape
         sidecar = rng.choice([b"[1, 2]", b'{"seat": 5}', b'{"seat": "a\\nb"}', b"{" * 50_000, b"\xff\xfe"])
         body = _obj({"seat": _box(0, 0, 0), "leg": _box(0, 1, 0)})

@@ -231,13 +231,15 @@ class Program:
             raise ProgramFormatError(f"{source}: a program must be a JSON object")
         if data.get("format") != PROGRAM_FORMAT:
             raise ProgramFormatError(f"{source}: not a parsel program (expected \"format\": \"{PROGRAM_FORMAT}\")")
-        if data.get("version") != PROGRAM_VERSION:
+        if type(data.get("version")) is not int or data.get("version") != PROGRAM_VERSION:  # true is not 1
             raise ProgramFormatError(f"{source}: unsupported program version {data.get('version')!r} "
                                      f"(this parsel reads {PROGRAM_VERSION})")
         unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata"})
         if unknown:
             raise ProgramFormatError(f"{source}: unknown field(s) {', '.join(unknown)}")
         params = []
+        if not isinstance(data.get("parameters", []), list):
+            raise ProgramFormatError(f"{source}: field 'parameters' must be a list")
         for i, item in enumerate(data.get("parameters", [])):
             if not isinstance(item, Mapping) or set(item) - {"name", "lo", "hi", "default"} or "name" not in item:
                 raise ProgramFormatError(f"{source}: parameters[{i}] must be an object with name, lo, hi, default")

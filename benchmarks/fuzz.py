@@ -479,7 +479,7 @@ def run_case(case: Case, root: Path, seconds: float = 60.0, memory_mib: int = 40
 def _judge(case: Case, folder: Path, before: dict[str, str], rc: int, stderr: str, hung: bool) -> str:
     if hung or rc == -signal.SIGALRM:
         return "hang"
-    if rc in (137, -signal.SIGKILL) or "MemoryError" in stderr:
+    if rc in (137, -signal.SIGKILL) or ("Traceback" in stderr and "MemoryError" in stderr):
         return "memory"
     if "Traceback (most recent call last)" in stderr:
         return "traceback"

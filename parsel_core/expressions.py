@@ -124,8 +124,12 @@ def parse_expression(text: str) -> Expression:
         tree = ast.parse(text.strip(), mode="eval").body
     except SyntaxError as exc:
         raise ProgramFormatError(f"amount {_short(text)} does not parse: {exc.msg}") from None
-    except (RecursionError, MemoryError, ValueError) as exc:  # nesting beyond the parser, digits beyond int()
-        raise ProgramFormatError(f"amount {_short(text)} does not parse: {type(exc).__name__}") from None
+    except (RecursionError, MemoryError) as exc:  # nesting beyond the parser's stack
+        raise ProgramFormatError(f"amount {_short(text)} does not parse: nested too deeply "
+                                 f"({type(exc).__name__})") from None
+    except ValueError as exc:  # digits beyond int()
+        raise ProgramFormatError(f"amount {_short(text)} does not parse: {' '.join(str(exc).split())[:120]}") \
+            from None
     names: set[str] = set()
     _check(tree, text, names, int(limit("max_expression_depth")))
     return Expression(text.strip(), tree, frozenset(names))

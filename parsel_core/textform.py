@@ -169,8 +169,10 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
             continue
         try:
             ops.append((where, op_from_text(line, registry, where)))
-        except (RecursionError, MemoryError, ValueError, OverflowError) as exc:  # nesting, digits beyond int()
-            raise ProgramFormatError(f"{where}: does not parse: {type(exc).__name__}") from None
+        except (RecursionError, MemoryError) as exc:  # the parser's own stack
+            raise ProgramFormatError(f"{where}: does not parse: nested too deeply ({type(exc).__name__})") from None
+        except (ValueError, OverflowError) as exc:  # digits beyond int(), numbers beyond float
+            raise ProgramFormatError(f"{where}: does not parse: {' '.join(str(exc).split())[:120]}") from None
     if not params:
         params = [Parameter("x")]
     declared = {p.name for p in params}

@@ -77,6 +77,12 @@ class OutputDir:
         path = Path(path)
         if path.exists() and not path.is_dir():
             raise ParselError(f"{path}: exists and is not a directory")
+        if path.is_dir() and not (path / RESULTS).exists():
+            others = sorted(e.name for e in path.iterdir() if not e.name.startswith(STAGING_PREFIX))
+            if others and not any((path / name / RESULT).is_file() for name in others):
+                # not a batch OUTDIR (nor one killed before its first log line): not this run's to repair
+                raise ParselError(f"{path}: holds files that are not a batch's results (e.g. {others[0]!r}); "
+                                  "choose an empty or new folder")
         try:
             path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:

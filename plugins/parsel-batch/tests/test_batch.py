@@ -283,3 +283,22 @@ def test_ctrl_c_stops_a_batch_and_its_workers_quietly(tmp_path):
     while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
         time.sleep(0.05)
     assert not [pid for pid in workers if _alive(pid)]
+
+
+def test_a_folder_of_other_files_is_not_taken_for_a_batch_outdir(tmp_path, capsys):
+    path = cases_file(tmp_path, SEEDS[:1])
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "thesis.txt").write_text("years of work")
+    assert main(["batch", str(path), "-o", str(docs), "--workers", "0", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "thesis.txt" in err
+    assert sorted(p.name for p in docs.iterdir()) == ["thesis.txt"]
+
+
+def test_a_bad_dask_address_is_refused_before_outdir_is_made(tmp_path, capsys):
+    path = cases_file(tmp_path, SEEDS[:1])
+    for address in ("nonsense", "tcp://:-1", "tcp://host:70000"):
+        assert main(["batch", str(path), "-o", str(tmp_path / "res"), "--dask", address, "--no-progress"]) == 2
+        assert "expected a scheduler address" in capsys.readouterr().err
+    assert not (tmp_path / "res").exists()

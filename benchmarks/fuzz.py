@@ -381,6 +381,33 @@ def generate(count: int, seed: int = 0, cheap_only: bool = False) -> list[Case]:
     return cases[:count]
 
 
+def largest_cases() -> list[Case]:
+    """Inputs at (just under) the default limits: they must be accepted, in bounded time and memory."""
+    import trimesh
+
+    scene = trimesh.Scene()
+    seat = trimesh.creation.icosphere(subdivisions=6)  # 81,920 triangles each: 245,760 of max_faces 300,000
+    for i, name in enumerate(("seat", "back", "arm")):
+        scene.add_geometry(seat.copy().apply_translation((0, 2.5 * i, 0)), node_name=name, geom_name=name)
+    parts = _obj({f"p{i}": _box(i * 2, 0, 0) for i in range(300)})  # max_parts
+    ops = _program([_op(amount=f"{1 + i % 7}e-4*x") for i in range(2000)])  # max_ops
+    lines = "param x in [0, 0.5]\n" + "# a comment line\n" * 19_990 + TINY_SEED.format(amount="x") + "\n"
+    long_amount = "+".join(["x/1000"] * 190)  # 1,329 characters, 190 deep (max_expression_depth 200)
+    groups = _program([{"op": "change_count", "operand": "translation_0", "amount": "990*x", "mode": "top_down"}],
+                      [{"name": "x", "lo": 0, "hi": 1, "default": 0}])  # about max_instances
+    return [
+        Case("largest", ["inspect", "big.glb"], {"big.glb": scene.export(file_type="glb")}, cheap=False),
+        Case("largest", ["inspect", "many.obj"], {"many.obj": parts}, cheap=False),
+        Case("largest", ["check", "tiny_table", "p.json"], {"p.json": ops}, cheap=False),
+        Case("largest", ["check", "tiny_table", "p.txt"], {"p.txt": lines.encode()}, cheap=False),
+        Case("largest", ["check", "tiny_table", "p.json"], {"p.json": _program([_op(amount=long_amount)])},
+             cheap=False),
+        Case("largest", ["evaluate", "shelf", "g.json", "--set", "x=1"], {"g.json": groups}, cheap=False),
+        Case("largest", ["check", "tiny_table", "p.json", "--samples", "10000"], {"p.json": _program([_op()])},
+             cheap=False),
+    ]
+
+
 # -- running -------------------------------------------------------------------------------------
 
 
@@ -564,6 +591,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--memory-mib", type=int, default=4096, help="per-run memory limit (above the warm parent)")
     parser.add_argument("--cheap", action="store_true", help="only the cases the test subset draws from")
     parser.add_argument("--show", type=int, default=5, help="failures to print in full")
+    parser.add_argument("--no-largest", dest="largest", action="store_false",
+                        help="skip the runs of the largest accepted inputs")
     args = parser.parse_args(argv)
     cases = generate(args.cases, args.seed, args.cheap)
     started = time.monotonic()
@@ -584,6 +613,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n--- {outcome.status}: {outcome.case.argv!r}\n{outcome.stderr[-2000:]}")
     peak = max((o.peak_mib for o in outcomes), default=0)
     print(f"\npeak RSS of one run: {peak:.0f} MiB; failures: {len(bad)}")
+    if args.largest:
+        largest = run_all(largest_cases(), args.seconds, args.memory_mib)
+        print("\nlargest accepted inputs (at the default limits): each must exit 0")
+        print(f"{'command':<58}{'status':>8}{'rc':>4}{'seconds':>9}{'peak MiB':>10}")
+        for outcome in largest:
+            ok = outcome.status == "clean" and outcome.rc == 0
+            bad += [] if ok else [outcome]
+            print(f"{' '.join(outcome.case.argv)[:57]:<58}{outcome.status:>8}{outcome.rc:>4}{outcome.seconds:>9.1f}"
+                  f"{outcome.peak_mib:>10.0f}")
+        print(f"peak RSS for the largest accepted inputs: {max(o.peak_mib for o in largest):.0f} MiB")
     return 1 if bad else 0
 
 

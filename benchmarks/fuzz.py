@@ -553,9 +553,11 @@ def warm_up() -> None:
 
 
 def run_all(cases: list[Case], seconds: float = 60.0, memory_mib: int = 4096,
-            progress: Callable[[int, Outcome], None] | None = None) -> list[Outcome]:
+            progress: Callable[[int, Outcome], None] | None = None,
+            outcomes: list[Outcome] | None = None) -> list[Outcome]:
+    """Run ``cases`` one after the other; outcomes are appended to ``outcomes`` as they come."""
     warm_up()
-    outcomes = []
+    outcomes = [] if outcomes is None else outcomes
     with tempfile.TemporaryDirectory(prefix="parsel-fuzz-") as root:
         for i, case in enumerate(cases):
             outcome = run_case(case, Path(root), seconds, memory_mib)
@@ -604,7 +606,12 @@ def main(argv: list[str] | None = None) -> int:
         elif (i + 1) % 100 == 0:
             print(f"... {i + 1} cases, {time.monotonic() - started:.0f} s", flush=True)
 
-    outcomes = run_all(cases, args.seconds, args.memory_mib, progress)
+    outcomes: list[Outcome] = []
+    try:
+        run_all(cases, args.seconds, args.memory_mib, progress, outcomes)
+    except KeyboardInterrupt:  # SIGINT: report what ran
+        print(f"\ninterrupted after {len(outcomes)} of {len(cases)} cases")
+        args.largest = False
     print(f"\n{len(outcomes)} cases (seed {args.seed}), {time.monotonic() - started:.0f} s wall, "
           f"per-run limits {args.seconds:g} s and {args.memory_mib} MiB")
     print(table(outcomes))

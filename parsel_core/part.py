@@ -45,7 +45,7 @@ class Part:
         if not isinstance(self.id, str) or not self.id:
             raise ValueError(f"part id must be a non-empty string, got {self.id!r}")
         for key in ("id", "label"):
-            check_name(getattr(self, key), f"part {self.id!r}: {key}")
+            check_name(getattr(self, key), f"part {self.id[:60]!r}: {key}")
         if not isinstance(self.hexahedron, Hexahedron):
             object.__setattr__(self, "hexahedron", Hexahedron(self.hexahedron))
         if self.name is None:

@@ -56,6 +56,12 @@ def check_mesh(mesh: Any, where: str) -> np.ndarray:
         raise ParselError(f"{where} has no faces")
     if not np.all(np.isfinite(vertices)):
         raise ParselError(f"{where} has NaN or infinite vertex coordinates")
+    from parsel_core.config import limit
+
+    bound = limit("max_magnitude")
+    if np.abs(vertices).max(initial=0.0) > bound:
+        raise ParselError(f"{where} has vertex coordinates over the limit max_magnitude = {bound:g} "
+                          "(raise it with PARSEL_MAX_MAGNITUDE)")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise ParselError(f"{where} has faces that index missing vertices")
     return vertices[np.unique(faces)]

@@ -107,9 +107,16 @@ def check_transforms(nodes: list, path: Path) -> None:
             if not isinstance(values, list) or len(values) != count or not all(
                     isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
                 raise ParselError(f"{path}: glTF node {i}: {key} must be {count} numbers")
-            if not all(math.isfinite(v) and abs(v) <= bound for v in values):
+            if not all(_sane(v, bound) for v in values):
                 raise ParselError(f"{path}: glTF node {i}: {key} holds a number that is not finite or is over "
                                   f"the limit max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
+
+
+def _sane(value: int | float, bound: float) -> bool:
+    try:
+        return math.isfinite(value) and abs(value) <= bound
+    except OverflowError:  # an integer beyond any float
+        return False
 
 
 def check_sizes(doc: dict, path: Path) -> None:

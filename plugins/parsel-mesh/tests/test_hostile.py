@@ -63,13 +63,17 @@ def _scale(doc):
     doc["nodes"][0]["scale"] = [1e308, 1e308, 1e308]
 
 
+def _huge_int(doc):
+    doc["nodes"][1]["translation"] = [10**400, 0, 0]
+
+
 def _count(doc):
     doc["accessors"][1]["count"] = 10**9
 
 
 @pytest.mark.parametrize("edit, fragment", [
     (_cycle, "cycle"), (_self, "its own child"), (_two_parents, "two parents"),
-    (_scale, "max_magnitude"), (_count, "max_faces"),
+    (_scale, "max_magnitude"), (_huge_int, "max_magnitude"), (_count, "max_faces"),
 ])
 def test_glb_node_graphs_and_numbers_that_would_hang_or_overflow_are_refused(tmp_path, edit, fragment):
     path = tmp_path / "bad.glb"

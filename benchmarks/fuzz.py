@@ -11,7 +11,7 @@ loaded once), under a wall-clock and a memory limit. A case passes when:
   argparse's usage error), and prints no Python traceback;
 * it ends within the time limit (no hang) and within the memory limit;
 * when it fails, the folder is exactly as before (no partial output), apart from a
-  ``*.failed-inference.jsonl`` record; whatever the outcome, files parsel did not write
+  ``*.failed-record.jsonl`` record; whatever the outcome, files parsel did not write
   are untouched and no staging folder is left behind.
 
 Run: ``python benchmarks/fuzz.py --cases 3000`` (prints a table per family and the peak
@@ -526,7 +526,7 @@ def _judge(case: Case, folder: Path, before: dict[str, str], rc: int, stderr: st
     if any(after.get(k) != v for k, v in user.items()):
         return "lost"
     if rc != 0 and not (case.argv[0] == "batch" and rc == 1):  # batch records its failed cases
-        extra = {k for k in after if k not in before and not k.endswith(".failed-inference.jsonl")}
+        extra = {k for k in after if k not in before and not k.endswith(".failed-record.jsonl")}
         if extra or any(after.get(k) != v for k, v in before.items()):
             return "partial"
     return "clean"

@@ -133,9 +133,9 @@ def test_edit_not_understood_is_exit_2_with_the_record_kept(tmp_path, capsys):
     out = tmp_path / "fly"
     assert main(["edit", "chair", "make it fly", "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "fly" in err and "fly.failed-inference.jsonl" in err
+    assert err.count("\n") == 1 and "fly" in err and "fly.failed-record.jsonl" in err
     assert not out.exists()  # a failure writes no OUTDIR; its record lies beside it, named as such
-    records = (tmp_path / "fly.failed-inference.jsonl").read_text().splitlines()
+    records = (tmp_path / "fly.failed-record.jsonl").read_text().splitlines()
     assert records and all(json.loads(line)["prompt"] for line in records)
     one_line_error(capsys, ["edit", "chair", "-o", str(tmp_path / "none")], "needs a request")
 

@@ -68,8 +68,8 @@ def test_a_failed_edit_keeps_the_earlier_results_and_writes_its_record_beside(tm
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     assert main(["edit", "chair", "make it fly", "-o", str(out)]) == 2
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
-    assert (tmp_path / "out.failed-inference.jsonl").is_file()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "out.failed-inference.jsonl"]
+    assert (tmp_path / "out.failed-record.jsonl").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "out.failed-record.jsonl"]
 
 
 def test_files_an_earlier_run_wrote_and_this_one_does_not_are_removed_others_stay(tmp_path):

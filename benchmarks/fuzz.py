@@ -389,7 +389,7 @@ def largest_cases() -> list[Case]:
     seat = trimesh.creation.icosphere(subdivisions=6)  # 81,920 triangles each: 245,760 of max_faces 300,000
     for i, name in enumerate(("seat", "back", "arm")):
         scene.add_geometry(seat.copy().apply_translation((0, 2.5 * i, 0)), node_name=name, geom_name=name)
-    parts = _obj({f"p{i}": _box(i * 2, 0, 0) for i in range(300)})  # max_parts
+    parts = _obj({f"p{i}": _box(i * 2, 0, 0) for i in range(300)})  # max_detect_parts
     ops = _program([_op(amount=f"{1 + i % 7}e-4*x") for i in range(2000)])  # max_ops
     lines = "param x in [0, 0.5]\n" + "# a comment line\n" * 19_990 + TINY_SEED.format(amount="x") + "\n"
     long_amount = "+".join(["x/1000"] * 190)  # 1,329 characters, 190 deep (max_expression_depth 200)

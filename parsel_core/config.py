@@ -73,7 +73,8 @@ class Limit:
 #: memory to a few GiB at most (benchmarks/fuzz.py prints the peak).
 LIMITS: dict[str, Limit] = {limit.name: limit for limit in (
     Limit("max_file_mb", 200, "size of a shape, program or cases file, in MiB"),
-    Limit("max_parts", 300, "parts in one shape (relation detection grows faster than the square of it)"),
+    Limit("max_parts", 1000, "parts in one shape"),
+    Limit("max_detect_parts", 300, "parts of a shape whose relations are detected (it grows faster than the square)"),
     Limit("max_faces", 300_000, "triangles in one shape file (all parts together)"),
     Limit("max_vertices", 300_000, "vertices in one shape file (all parts together)"),
     Limit("max_ops", 2000, "ops in one program"),

@@ -21,6 +21,9 @@ def load_shape(spec: str, detect: bool = True) -> ShapeGraph:
 
     shape = _read_shape(spec, example_shapes(), shape_loaders())
     if detect and not shape.relations:
+        from parsel_core.config import check_limit
+
+        check_limit("max_detect_parts", f"{spec}: parts to detect relations among", len(shape.parts))
         shape = detect_relations(shape)
     return shape
 

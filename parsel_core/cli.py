@@ -9,8 +9,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from parsel_core import __version__
+from parsel_core.config import check_limit
 from parsel_core.errors import ParselError
-from parsel_core.io import write_all, write_outdir  # noqa: F401 - write_all: the commands' old home
+from parsel_core.io import write_all  # noqa: F401 - write_all: the commands' old home
+from parsel_core.outputs import check_output_dir, write_outdir
 
 
 def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], int]:
@@ -31,6 +33,11 @@ def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], 
 def _add_backend(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", metavar="NAME",
                         help="CAS backend (default: $PARSEL_CAS_BACKEND, parsel.toml, else the fastest installed)")
+
+
+def _add_force(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--force", action="store_true",
+                        help="write into an OUTDIR holding other files (only parsel's own files are replaced)")
 
 
 def cmd_plugins(args: argparse.Namespace) -> int:
@@ -153,7 +160,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         main(["view", str(output), "--html", str(output / "slider.html"), "--no-browser"])
     if "render" in commands:
         main(["render", name, str(output / "program.json"), "-o", str(output / "strip.png")])
-    print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir()))} in {output}/")
+    print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir() if not p.name.startswith('.')))} "
+          f"in {output}/")
     return 0
 
 
@@ -259,12 +267,23 @@ def _language_options(args: argparse.Namespace) -> dict:
             "api_base": args.api_base, "cache_dir": args.cache}
 
 
+def check_tau(tau: float | None) -> None:
+    """``--tau``: the parameter range [0, tau] must be a finite, positive span of sane size."""
+    from parsel_core.config import limit
+
+    if tau is not None and not 1e-6 <= tau <= limit("max_magnitude"):
+        raise ParselError(f"--tau {tau!r}: the parameter range [0, tau] needs tau from 1e-06 to "
+                          f"{limit('max_magnitude'):g} (max_magnitude)")
+
+
 def cmd_edit(args: argparse.Namespace) -> int:
     """A request in words (language layer) or a seed edit (expert mode) -> a complete program."""
     from parsel_core import api
     from parsel_core.language import InferenceError
     from parsel_core.language.inference_io import keep_failed_record
 
+    check_output_dir(args.output, args.force)
+    check_tau(args.tau)
     options = {"tau": args.tau} if args.tau is not None else {}
     try:
         result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
@@ -275,7 +294,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
         # The record of what was asked and answered is the useful output of a failed inference;
         # a previous OUTDIR is never replaced by it.
         raise keep_failed_record(exc, args.output, api.records_jsonl(exc.record)) from None
-    write_outdir(args.output, result.files())
+    write_outdir(args.output, result.files(), args.force)
     program, report = result.program, result.report
     counts = report.counts()
     if args.json:
@@ -297,8 +316,9 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     """Proxydural modelling (paper 8.1): N requests, one program each, stacked with N sliders."""
     from parsel_core import api
 
+    check_output_dir(args.output, args.force)
     result = api.proxydural(args.shape, args.count, progress=not args.quiet, **_language_options(args))
-    write_outdir(args.output, result.files())
+    write_outdir(args.output, result.files(), args.force)
     counts = result.report.counts()
     if args.json:
         print(json.dumps({"output": args.output, "sliders": result.used, "skipped": result.skipped,
@@ -318,10 +338,11 @@ def cmd_variations(args: argparse.Namespace) -> int:
     """Shape variation families (paper 8.2): variants of one request, one program each."""
     from parsel_core import api
 
+    check_output_dir(args.output, args.force)
     result = api.variations(args.shape, args.request, args.count, progress=not args.quiet,
                             **_language_options(args))
     files = result.files()
-    write_outdir(args.output, files)
+    write_outdir(args.output, files, args.force)
     if args.json:
         print(json.dumps({"output": args.output, **json.loads(files["variations.json"])}, indent=1))
         return 0
@@ -357,6 +378,8 @@ def cmd_apply(args: argparse.Namespace) -> int:
     from parsel_core import api
     from parsel_core.loading import parse_assignments
 
+    if args.sweep is not None:
+        check_limit("max_sweep", "--sweep", args.sweep)
     paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep,
                        progress=not args.quiet)
     if args.json:
@@ -452,6 +475,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
+    _add_force(p)
     _add_backend(p)
     p.set_defaults(func=cmd_edit)
 
@@ -476,6 +500,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
         p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
         p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
         p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+        _add_force(p)
         _add_backend(p)
         p.set_defaults(func=func)
 

@@ -9,9 +9,11 @@
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import tomllib
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -31,12 +33,14 @@ _warned: set[tuple[str, str]] = set()
 
 
 def _warn_unknown(path: Path, section: dict[str, Any]) -> None:
+    known = (*KNOWN_KEYS, *LIMITS)  # the limits (below) are settings too
     for key in section:
-        if key in KNOWN_KEYS or (str(path), key) in _warned:
+        if key in known or (str(path), key) in _warned:
             continue
         _warned.add((str(path), key))
-        close = difflib.get_close_matches(key, KNOWN_KEYS, n=1)
-        hint = f"; did you mean {close[0]!r}?" if close else f" (known: {', '.join(KNOWN_KEYS)})"
+        close = difflib.get_close_matches(key, known, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else (
+            f" (known: {', '.join(KNOWN_KEYS)}, and the max_* limits in the README)")
         warnings.warn(f"{path}: [parsel] {key!r} is not a setting parsel reads and is ignored{hint}", ConfigWarning,
                       stacklevel=3)
 
@@ -82,3 +86,66 @@ def default_backend_name(installed: list[str]) -> str:
     if installed:
         return sorted(installed)[0]
     raise ParselError("no CAS backend is installed (install parsel-sympy or parsel-symengine)")
+
+
+# -- limits -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A bound on input size, checked before the expensive work starts."""
+
+    name: str
+    default: float
+    what: str
+
+
+#: Every limit parsel enforces (README, "Limits"). Raise one with ``[parsel] <name> = N`` in
+#: parsel.toml or the environment variable ``PARSEL_<NAME>``; the defaults keep one command's
+#: memory to a few GiB at most (benchmarks/fuzz.py prints the peak).
+LIMITS: dict[str, Limit] = {limit.name: limit for limit in (
+    Limit("max_file_mb", 200, "size of a shape, program or cases file, in MiB"),
+    Limit("max_parts", 1000, "parts in one shape"),
+    Limit("max_detect_parts", 300, "parts of a shape whose relations are detected (it grows faster than the square)"),
+    Limit("max_faces", 300_000, "triangles in one shape file (all parts together)"),
+    Limit("max_vertices", 300_000, "vertices in one shape file (all parts together)"),
+    Limit("max_ops", 2000, "ops in one program"),
+    Limit("max_program_lines", 20_000, "lines of a text program or ShapeAssembly program"),
+    Limit("max_expression_chars", 2000, "characters in one amount expression"),
+    Limit("max_expression_depth", 200, "nesting depth of one amount expression (a sum of n terms is n deep)"),
+    Limit("max_instances", 1000, "instances of one symmetry group after ChangeCount / ChangeDelta"),
+    Limit("max_samples", 10_000, "parameter samples of a relation check (check --samples)"),
+    Limit("max_sweep", 1000, "files one apply --sweep writes"),
+    Limit("max_magnitude", 1e6, "absolute value of a coordinate, size or amount (in shape units)"),
+)}
+
+
+def limit(name: str) -> float:
+    """The value of a limit: ``PARSEL_<NAME>``, else parsel.toml, else its default."""
+    entry = LIMITS[name]
+    env = f"PARSEL_{name.upper()}"
+    raw: Any = os.environ.get(env)
+    where = env
+    if raw is None:
+        raw = load_settings().get(name, entry.default)
+        where = f"{config_path()}: [parsel] {name}"
+    try:
+        value = float(raw)
+    except (TypeError, ValueError, OverflowError):
+        raise ParselError(f"{where} must be a positive number, not {raw!r}") from None
+    if isinstance(raw, bool) or not math.isfinite(value) or value <= 0:
+        raise ParselError(f"{where} must be a positive number, not {raw!r}")
+    return value
+
+
+def over_limit(name: str, what: str, value: float) -> ParselError:
+    """The one-line error for ``what`` exceeding limit ``name``, saying how to raise it."""
+    bound = limit(name)
+    return ParselError(f"{what}: {value:g} is over the limit {name} = {bound:g} (raise it with "
+                       f"PARSEL_{name.upper()} or [parsel] {name} in parsel.toml)")
+
+
+def check_limit(name: str, what: str, value: float) -> None:
+    """Raise the one-line error when ``value`` exceeds limit ``name``."""
+    if not value <= limit(name):  # also refuses NaN
+        raise over_limit(name, what, value)

@@ -47,52 +47,128 @@ class Expression:
         return _build(self.tree, names, functions, number, self.text)
 
 
-def _check(node: ast.AST, text: str, names: set[str]) -> None:
-    if isinstance(node, ast.Constant):
-        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-            raise ProgramFormatError(f"amount {text!r}: only numbers are allowed as literals, not {node.value!r}")
-    elif isinstance(node, ast.Name):
-        if node.id.startswith("_"):
-            raise ProgramFormatError(f"amount {text!r}: name {node.id!r} is not allowed")
-        if node.id not in CONSTANTS:
-            names.add(node.id)
-    elif isinstance(node, ast.BinOp):
-        if type(node.op) not in _BINARY:
-            raise ProgramFormatError(f"amount {text!r}: operator {type(node.op).__name__} is not allowed")
-        _check(node.left, text, names)
-        _check(node.right, text, names)
-    elif isinstance(node, ast.UnaryOp):
-        if type(node.op) not in _UNARY:
-            raise ProgramFormatError(f"amount {text!r}: operator {type(node.op).__name__} is not allowed")
-        _check(node.operand, text, names)
-    elif isinstance(node, ast.Call):
-        if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-            called = ast.unparse(node.func)
-            raise ProgramFormatError(f"amount {text!r}: call to {called!r} is not allowed "
-                                     f"(allowed: {', '.join(sorted(FUNCTIONS))})")
-        if node.keywords or len(node.args) != FUNCTIONS[node.func.id]:
-            raise ProgramFormatError(f"amount {text!r}: {node.func.id}() takes {FUNCTIONS[node.func.id]} "
-                                     "positional argument(s)")
-        for arg in node.args:
-            _check(arg, text, names)
-    else:
-        raise ProgramFormatError(f"amount {text!r}: {type(node).__name__} is not allowed in an amount")
+def _check(tree: ast.AST, text: str, names: set[str], max_depth: int) -> None:
+    """Walk the tree with an explicit stack (no recursion limit to hit), refusing what is not whitelisted."""
+    stack: list[tuple[ast.AST, int]] = [(tree, 1)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > max_depth:
+            raise ProgramFormatError(f"amount {_short(text)}: nests deeper than the limit max_expression_depth = "
+                                     f"{max_depth} (raise it with PARSEL_MAX_EXPRESSION_DEPTH)")
+        if isinstance(node, ast.Constant):
+            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+                raise ProgramFormatError(f"amount {_short(text)}: only numbers are allowed as literals, "
+                                         f"not {_short(repr(node.value))}")
+            if not _finite_number(node.value):
+                raise ProgramFormatError(f"amount {_short(text)}: the number {_short(repr(node.value))} is not a "
+                                         "finite float")
+        elif isinstance(node, ast.Name):
+            if node.id.startswith("_"):
+                raise ProgramFormatError(f"amount {_short(text)}: name {node.id!r} is not allowed")
+            if node.id not in CONSTANTS:
+                names.add(node.id)
+        elif isinstance(node, ast.BinOp):
+            if type(node.op) not in _BINARY:
+                raise ProgramFormatError(f"amount {_short(text)}: operator {type(node.op).__name__} is not allowed")
+            stack += [(node.left, depth + 1), (node.right, depth + 1)]
+        elif isinstance(node, ast.UnaryOp):
+            if type(node.op) not in _UNARY:
+                raise ProgramFormatError(f"amount {_short(text)}: operator {type(node.op).__name__} is not allowed")
+            stack.append((node.operand, depth + 1))
+        elif isinstance(node, ast.Call):
+            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
+                called = node.func.id if isinstance(node.func, ast.Name) else type(node.func).__name__
+                raise ProgramFormatError(f"amount {_short(text)}: call to {_short(called)} is not allowed "
+                                         f"(allowed: {', '.join(sorted(FUNCTIONS))})")
+            if node.keywords or len(node.args) != FUNCTIONS[node.func.id]:
+                raise ProgramFormatError(f"amount {_short(text)}: {node.func.id}() takes "
+                                         f"{FUNCTIONS[node.func.id]} positional argument(s)")
+            stack += [(arg, depth + 1) for arg in node.args]
+        else:
+            raise ProgramFormatError(f"amount {_short(text)}: {type(node).__name__} is not allowed in an amount")
+
+
+def _finite_number(value: int | float) -> bool:
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:  # an integer literal beyond any float
+        return False
+
+
+def _short(text: str, width: int = 60) -> str:
+    """``text`` quoted for an error line: one line, at most ``width`` characters."""
+    quoted = repr(text)
+    return quoted if len(quoted) <= width else quoted[: width - 4] + "...'"
 
 
 @lru_cache(maxsize=4096)
 def parse_expression(text: str) -> Expression:
-    """Parse and validate an amount; raises :class:`ProgramFormatError` naming the text."""
+    """Parse and validate an amount; raises :class:`ProgramFormatError` naming the text.
+
+    Amounts are one line of arithmetic: no comments, no control characters (they travel
+    into text programs and the slider page), bounded in length and nesting depth.
+    """
+    from parsel_core.config import limit
+
     if not isinstance(text, str) or not text.strip():
-        raise ProgramFormatError(f"amount {text!r} is empty")
-    if len(text) > 2000:
-        raise ProgramFormatError(f"amount of {len(text)} characters is too long (limit 2000)")
+        raise ProgramFormatError(f"amount {_short(repr(text))} is empty or not text")
+    max_chars = int(limit("max_expression_chars"))
+    if len(text) > max_chars:
+        raise ProgramFormatError(f"amount of {len(text)} characters is over the limit max_expression_chars = "
+                                 f"{max_chars} (raise it with PARSEL_MAX_EXPRESSION_CHARS)")
+    bad = next((c for c in text if c == "#" or not c.isprintable()), None)
+    if bad is not None:
+        raise ProgramFormatError(f"amount {_short(text)}: character {bad!r} is not allowed (one line of "
+                                 "arithmetic, no comments)")
     try:
         tree = ast.parse(text.strip(), mode="eval").body
     except SyntaxError as exc:
-        raise ProgramFormatError(f"amount {text!r} does not parse: {exc.msg}") from None
+        raise ProgramFormatError(f"amount {_short(text)} does not parse: {exc.msg}") from None
+    except (RecursionError, MemoryError) as exc:  # nesting beyond the parser's stack
+        raise ProgramFormatError(f"amount {_short(text)} does not parse: nested too deeply "
+                                 f"({type(exc).__name__})") from None
+    except ValueError as exc:  # digits beyond int()
+        raise ProgramFormatError(f"amount {_short(text)} does not parse: {' '.join(str(exc).split())[:120]}") \
+            from None
     names: set[str] = set()
-    _check(tree, text, names)
+    _check(tree, text, names, int(limit("max_expression_depth")))
     return Expression(text.strip(), tree, frozenset(names))
+
+
+def check_finite(expression: Expression, ranges: Mapping[str, tuple[float, float]], what: str = "amount",
+                 samples: int = 33) -> None:
+    """Refuse an amount that is not a finite number of sane magnitude over its parameters' ranges.
+
+    The amount is evaluated with numpy at ``samples`` points of every range (ends
+    included; all parameters move together), so overflow (``2**99999``), division by zero
+    and towers of powers are caught here, before a CAS tries to expand them.
+    """
+    import numpy as np
+
+    from parsel_core.config import limit
+
+    bound = limit("max_magnitude")
+    grid = np.linspace(0.0, 1.0, samples)
+    values = {}
+    for name in expression.names:
+        if name not in ranges:
+            raise ProgramFormatError(f"{what} {_short(expression.text)}: unknown parameter {name!r}")
+        lo, hi = ranges[name]
+        values[name] = lo + (hi - lo) * grid
+    with np.errstate(all="ignore"):
+        try:
+            result = expression.build(values, numpy_functions(), np.float64)
+            result = np.broadcast_to(np.asarray(result, dtype=float), grid.shape)
+        except (OverflowError, ZeroDivisionError, ValueError, TypeError, FloatingPointError):
+            result = np.array([np.nan])
+    if not np.all(np.isfinite(result)):
+        span = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in sorted(ranges.items()))
+        raise ProgramFormatError(f"{what} {_short(expression.text)} is not a finite number over the parameter "
+                                 f"range ({span or 'no parameters'})")
+    peak = float(np.max(np.abs(result)))
+    if peak > bound:
+        raise ProgramFormatError(f"{what} {_short(expression.text)} reaches {peak:g}, over the limit "
+                                 f"max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
 
 
 def _build(node, names, functions, number, text):

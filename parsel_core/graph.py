@@ -64,6 +64,10 @@ class ShapeGraph:
         self.source = source
         self.metadata = dict(metadata or {})
         self.parts: dict[str, Part] = {}
+        parts = list(parts)
+        from parsel_core.config import check_limit
+
+        check_limit("max_parts", f"shape {name!r}: parts", sum(not p.virtual for p in parts))  # before detection
         for part in parts:
             if part.virtual:
                 continue
@@ -190,7 +194,7 @@ class ShapeGraph:
         """Read the ``parsel.shape`` JSON form; errors name the source and the field."""
         if not isinstance(data, Mapping) or data.get("format") != SHAPE_FORMAT:
             raise ParselError(f"{source}: not a parsel shape (expected \"format\": \"{SHAPE_FORMAT}\")")
-        if data.get("version") != SHAPE_VERSION:
+        if type(data.get("version")) is not int or data.get("version") != SHAPE_VERSION:  # true is not 1
             raise ParselError(f"{source}: unsupported shape version {data.get('version')!r} "
                               f"(this parsel reads {SHAPE_VERSION})")
         parts = []
@@ -198,8 +202,15 @@ class ShapeGraph:
             try:
                 parts.append(Part(str(item["id"]), str(item.get("label", item["id"])),
                                   Hexahedron(item["corners"]), name=item.get("name")))
-            except (KeyError, TypeError, ValueError) as exc:
+            except (KeyError, TypeError, ValueError, OverflowError) as exc:
                 raise ParselError(f"{source}: parts[{i}]: {exc}") from None
+        from parsel_core.config import limit
+
+        bound = limit("max_magnitude")
+        for i, part in enumerate(parts):
+            if not np.all(np.abs(part.hexahedron.corners) <= bound):  # also refuses NaN
+                raise ParselError(f"{source}: parts[{i}]: corners must be finite and within max_magnitude = {bound:g} "
+                                  "(raise it with PARSEL_MAX_MAGNITUDE)")
         if not parts:
             raise ParselError(f"{source}: shape has no parts")
         relations = []

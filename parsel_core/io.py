@@ -70,40 +70,12 @@ def read_json(path: Path | str, what: str = "") -> Any:
             from None
 
 
-def write_outdir(outdir: str | Path, files: dict[str, str]) -> None:
-    """Write all files into a fresh sibling directory, then swap it in: never a partial OUTDIR."""
-    target = Path(outdir)
-    parent = target.resolve().parent
-    if not parent.is_dir():
-        raise ParselError(f"{outdir}: parent directory {parent} does not exist")
-    if target.exists() and not target.is_dir():
-        raise ParselError(f"{outdir}: exists and is not a directory")
-    try:
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
-    except OSError as exc:
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    try:
-        for name, text in files.items():
-            (staging / name).parent.mkdir(parents=True, exist_ok=True)  # names may hold sub-folders
-            (staging / name).write_text(text, encoding="utf-8")
-        if target.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=parent))
-            os.replace(target, old / "previous")
-            try:
-                os.replace(staging, target)
-            except BaseException:
-                os.replace(old / "previous", target)  # put the previous OUTDIR back
-                shutil.rmtree(old, ignore_errors=True)
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(staging, target)
-    except OSError as exc:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+def write_outdir(outdir: str | Path, files: dict[str, str], force: bool = False) -> None:
+    """Write an OUTDIR: :func:`parsel_core.outputs.write_outdir` (a manifest of parsel's own
+    files, never a user's file replaced or removed, all files or none)."""
+    from parsel_core.outputs import write_outdir as write
+
+    write(str(outdir), files, force)
 
 
 def write_all(paths: list[Path], write: Callable[[int, Path], None]) -> None:

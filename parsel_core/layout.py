@@ -23,12 +23,30 @@ from collections.abc import Sequence
 import numpy as np
 
 from parsel_core.cage import point_weights
+from parsel_core.errors import ParselError
 from parsel_core.ops import ChangeCount, ChangeDelta, GroupOp
 from parsel_core.relations import Relation, RotationSymmetry, TranslationSymmetry, rotation_matrix
 
 
 def _round_half_up(value: float) -> int:
+    if not math.isfinite(value) or abs(value) > 1e15:
+        raise ParselError(f"a count change of {value!r} is not a usable number of instances")
     return int(math.floor(value + 0.5))
+
+
+def _checked_count(relation: Relation, count: float) -> int:
+    """The instance count, refused (before any array is made) when over the ``max_instances`` limit."""
+    from parsel_core.config import check_limit
+
+    if not math.isfinite(count):
+        raise ParselError(f"group {relation.id!r}: the edit asks for {count!r} instances")
+    check_limit("max_instances", f"group {relation.id!r}: instances", count)
+    return int(count)
+
+
+def _fitting(length: float, size: float) -> float:
+    """How many steps of ``size`` fit in ``length`` (as a float: it may be huge)."""
+    return math.floor(length / size + 1e-9) if math.isfinite(length / size) else math.inf
 
 
 def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
@@ -54,7 +72,7 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
                 direction = span / length if length > 0 else rest_step / max(np.linalg.norm(rest_step), 1e-300)
                 step = direction * np.linalg.norm(rest_step) * (1.0 + amount)
                 size = float(np.linalg.norm(step))
-                count = int(math.floor(length / size + 1e-9)) + 1 if size > 1e-12 else 1
+                count = _fitting(length, size) + 1 if size > 1e-12 else 1
     else:
         start = first.mean(axis=0)
         step = members[1].mean(axis=0) - start if k > 1 else np.zeros(3)
@@ -63,6 +81,7 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
                 count = max(1, k + _round_half_up(amount))
             elif isinstance(op, ChangeDelta):
                 step = step * (1.0 + amount)
+    count = _checked_count(relation, count)
     offsets = start + np.arange(count)[:, None] * step
     return template[None] + offsets[:, None, :]
 
@@ -90,7 +109,8 @@ def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent:
             angle = relation.angle * (1.0 + amount)
             if top_down and abs(angle) > 1e-12:
                 full = 2 * math.pi if closed else abs(span)
-                count = max(1, int(math.floor(full / abs(angle) + 1e-9)) + (0 if closed else 1))
+                count = max(1, _fitting(full, abs(angle)) + (0 if closed else 1))
+    count = _checked_count(relation, count)
     template = members[0] - center
     return np.stack([center + template @ rotation_matrix(relation.axis, j * angle).T for j in range(count)])
 

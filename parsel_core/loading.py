@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from parsel_core.errors import ParselError, ProgramFormatError
@@ -20,6 +21,9 @@ def load_shape(spec: str, detect: bool = True) -> ShapeGraph:
 
     shape = _read_shape(spec, example_shapes(), shape_loaders())
     if detect and not shape.relations:
+        from parsel_core.config import check_limit
+
+        check_limit("max_detect_parts", f"{spec}: parts to detect relations among", len(shape.parts))
         shape = detect_relations(shape)
     return shape
 
@@ -32,15 +36,28 @@ def _read_shape(spec: str, examples, loaders) -> ShapeGraph:
     if not path.exists():
         names = ", ".join(sorted(examples)) or "none"
         raise ParselError(f"{spec}: no such file, and not an example shape (examples: {names})")
+    check_file_size(path, "shape")
     for loader in loaders:
         if loader.can_load(path):
             return loader.load(path)
     raise ParselError(f"{spec}: no installed loader reads this kind of file (suffix {path.suffix!r})")
 
 
+def check_file_size(path: Path, what: str) -> None:
+    """Refuse a file over the ``max_file_mb`` limit before reading it (folders are not checked)."""
+    from parsel_core.config import check_limit
+
+    try:
+        size = path.stat().st_size if path.is_file() else 0
+    except OSError:
+        return  # the reader names the problem
+    check_limit("max_file_mb", f"{path}: {what} file size in MiB", round(size / 2**20, 1))
+
+
 def load_program(path: str | Path) -> Program:
     """A program from its JSON form (``.json``) or its text form (anything else)."""
     path = Path(path)
+    check_file_size(path, "program")
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -61,6 +78,8 @@ def parse_assignments(items: list[str] | None) -> dict[str, float]:
             if not sep or not name.strip():
                 raise ValueError
             values[name.strip()] = float(value)
+            if not math.isfinite(values[name.strip()]):
+                raise ValueError
         except ValueError:
             raise ParselError(f"--set {item!r}: expected NAME=NUMBER") from None
     return values

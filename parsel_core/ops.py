@@ -32,7 +32,7 @@ def as_vector(value: Any, field_name: str, *, unit: bool = False) -> Vector:
     """Three finite floats; unit vectors are normalised unless already of length 1."""
     try:
         vector = np.asarray(value, dtype=float).reshape(3)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond any float
         raise ProgramFormatError(f"field {field_name!r} must be 3 numbers, got {value!r}") from None
     if not np.all(np.isfinite(vector)):
         raise ProgramFormatError(f"field {field_name!r} must be finite, got {value!r}")

@@ -46,9 +46,9 @@ class Parameter:
             raise ProgramFormatError(f"parameter name {self.name!r} must be an identifier (not pi or e)")
         for key in ("lo", "hi"):
             value = getattr(self, key)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
                 raise ProgramFormatError(f"parameter {self.name!r}: {key} must be a finite number, got {value!r}")
-            object.__setattr__(self, key, float(value))
+            object.__setattr__(self, key, float(value) + 0.0)  # + 0.0: no -0.0 end
         if self.lo > self.hi:
             raise ProgramFormatError(f"parameter {self.name!r}: range [{self.lo}, {self.hi}] is empty")
         default = self.lo if self.default is None else self.default
@@ -70,8 +70,16 @@ class Parameter:
     def samples(self, count: int, seed: int = 0) -> np.ndarray:
         """``count`` values: both ends of the range and uniform random ones between."""
         rng = np.random.default_rng(seed)
-        inner = rng.uniform(self.lo, self.hi, size=max(count - 2, 0))
+        inner = rng.uniform(self.lo, self.hi, size=max(count - 2, 0)) if self.hi > self.lo else \
+            np.full(max(count - 2, 0), self.lo)
         return np.concatenate([[self.lo, self.hi], inner])[:count]
+
+
+def _finite(value: int | float) -> bool:
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer beyond any float
+        return False
 
 
 @dataclass(frozen=True)
@@ -94,6 +102,28 @@ class Program:
             if unknown:
                 raise ProgramFormatError(f"op {i} ({op.name} on {op.operand!r}): amount {op.amount!r} uses "
                                          f"undeclared parameter(s) {', '.join(unknown)}")
+
+    def check_numbers(self, source: str = "<program>") -> None:
+        """Refuse what a file or a model could slip in: too many ops, coordinates or ranges
+        beyond ``max_magnitude``, amounts that are not finite over their parameters' ranges."""
+        from parsel_core.config import check_limit, limit
+        from parsel_core.expressions import check_finite
+
+        check_limit("max_ops", f"{source}: ops", len(self.ops))
+        bound = limit("max_magnitude")
+        for p in self.parameters:
+            if max(abs(p.lo), abs(p.hi)) > bound:
+                raise ProgramFormatError(f"{source}: parameter {p.name!r}: range [{p.lo:g}, {p.hi:g}] is over the "
+                                         f"limit max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
+        ranges = {p.name: (p.lo, p.hi) for p in self.parameters}
+        for i, op in enumerate(self.ops):
+            where = f"{source}: op {i} ({op.name} on {op.operand!r})"
+            for key, value in op.params().items():
+                values = value if isinstance(value, tuple) else (value,)
+                if any(isinstance(v, (int, float)) and not abs(v) <= bound for v in values):
+                    raise ProgramFormatError(f"{where}: {key} {value!r} is over the limit max_magnitude = "
+                                             f"{bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
+            check_finite(parse_expression(op.amount), ranges, f"{where}: amount")
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -202,13 +232,15 @@ class Program:
             raise ProgramFormatError(f"{source}: a program must be a JSON object")
         if data.get("format") != PROGRAM_FORMAT:
             raise ProgramFormatError(f"{source}: not a parsel program (expected \"format\": \"{PROGRAM_FORMAT}\")")
-        if data.get("version") != PROGRAM_VERSION:
+        if type(data.get("version")) is not int or data.get("version") != PROGRAM_VERSION:  # true is not 1
             raise ProgramFormatError(f"{source}: unsupported program version {data.get('version')!r} "
                                      f"(this parsel reads {PROGRAM_VERSION})")
         unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata"})
         if unknown:
             raise ProgramFormatError(f"{source}: unknown field(s) {', '.join(unknown)}")
         params = []
+        if not isinstance(data.get("parameters", []), list):
+            raise ProgramFormatError(f"{source}: field 'parameters' must be a list")
         for i, item in enumerate(data.get("parameters", [])):
             if not isinstance(item, Mapping) or set(item) - {"name", "lo", "hi", "default"} or "name" not in item:
                 raise ProgramFormatError(f"{source}: parameters[{i}] must be an object with name, lo, hi, default")
@@ -219,14 +251,19 @@ class Program:
         ops_data = data.get("ops")
         if not isinstance(ops_data, list):
             raise ProgramFormatError(f"{source}: field 'ops' must be a list")
+        from parsel_core.config import check_limit
+
+        check_limit("max_ops", f"{source}: ops", len(ops_data))  # before building any
         ops = [op_from_dict(item, registry, where=f"{source}: ops[{i}]") for i, item in enumerate(ops_data)]
         metadata = data.get("metadata", {})
         if not isinstance(metadata, Mapping):
             raise ProgramFormatError(f"{source}: field 'metadata' must be an object")
         try:
-            return cls(tuple(ops), tuple(params), dict(metadata))
+            program = cls(tuple(ops), tuple(params), dict(metadata))
         except ProgramFormatError as exc:
             raise ProgramFormatError(f"{source}: {exc}") from None
+        program.check_numbers(source)
+        return program
 
     @classmethod
     def from_json(cls, text: str, registry: Mapping[str, type[EditOp]] | None = None,
@@ -236,6 +273,8 @@ class Program:
         except json.JSONDecodeError as exc:
             raise ProgramFormatError(f"{source}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") \
                 from None
+        except (ValueError, RecursionError) as exc:  # a number too long to convert, nesting too deep
+            raise ProgramFormatError(f"{source}: not usable JSON: {type(exc).__name__}") from None
         return cls.from_dict(data, registry, source)
 
     def to_text(self) -> str:

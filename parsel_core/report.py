@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from parsel_core.cage import batched_cube_coordinates
+from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import CORNER_BITS
 from parsel_core.program import Program, evaluate, laid_out_groups
@@ -139,6 +140,11 @@ def sliding_members(shape: ShapeGraph, program: Program) -> set[str]:
 def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
                   samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> RelationReport:
     """The relation report of ``program`` on ``shape`` (``parsel check``)."""
+    from parsel_core.config import check_limit
+
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
+        raise ParselError(f"samples must be an integer of at least 2 (both ends of the range), got {samples!r}")
+    check_limit("max_samples", "parameter samples", samples)
     breaks = set(breaks)
     for rid in breaks:
         shape.relation(rid)

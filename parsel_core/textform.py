@@ -140,8 +140,12 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
         from parsel_core.plugins import edit_operators
 
         registry = edit_operators()
+    from parsel_core.config import check_limit
+
+    lines = text.splitlines()
+    check_limit("max_program_lines", f"{source}: lines", len(lines))
     params, ops = [], []
-    for number, raw in enumerate(text.splitlines(), start=1):
+    for number, raw in enumerate(lines, start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
@@ -163,7 +167,12 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
             except ProgramFormatError as exc:
                 raise ProgramFormatError(f"{where}: {exc}") from None
             continue
-        ops.append((where, op_from_text(line, registry, where)))
+        try:
+            ops.append((where, op_from_text(line, registry, where)))
+        except (RecursionError, MemoryError) as exc:  # the parser's own stack
+            raise ProgramFormatError(f"{where}: does not parse: nested too deeply ({type(exc).__name__})") from None
+        except (ValueError, OverflowError) as exc:  # digits beyond int(), numbers beyond float
+            raise ProgramFormatError(f"{where}: does not parse: {' '.join(str(exc).split())[:120]}") from None
     if not params:
         params = [Parameter("x")]
     declared = {p.name for p in params}
@@ -174,9 +183,11 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
                                      f"{', '.join(unknown)} (declare with 'param NAME in [LO, HI]')")
     ops = [op for _, op in ops]
     try:
-        return Program(tuple(ops), tuple(params))
+        program = Program(tuple(ops), tuple(params))
     except ProgramFormatError as exc:
         raise ProgramFormatError(f"{source}: {exc}") from None
+    program.check_numbers(source)
+    return program
 
 
 def seed_from_text(text: str, source: str = "--seed"):

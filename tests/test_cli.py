@@ -133,8 +133,10 @@ def test_edit_not_understood_is_exit_2_with_the_record_kept(tmp_path, capsys):
     out = tmp_path / "fly"
     assert main(["edit", "chair", "make it fly", "-o", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "fly" in err
-    assert sorted(p.name for p in out.iterdir()) == ["record.jsonl"]
+    assert err.count("\n") == 1 and "fly" in err and "fly.failed-record.jsonl" in err
+    assert not out.exists()  # a failure writes no OUTDIR; its record lies beside it, named as such
+    records = (tmp_path / "fly.failed-record.jsonl").read_text().splitlines()
+    assert records and all(json.loads(line)["prompt"] for line in records)
     one_line_error(capsys, ["edit", "chair", "-o", str(tmp_path / "none")], "needs a request")
 
 
@@ -244,12 +246,12 @@ def test_a_sweep_that_fails_midway_keeps_the_previous_files(files, capsys, monke
 
 
 def test_a_failed_outdir_swap_keeps_the_previous_outdir(tmp_path, monkeypatch):
-    from parsel_core.cli import write_outdir
+    from parsel_core.outputs import write_outdir
 
     target = tmp_path / "out"
     write_outdir(str(target), {"a.txt": "old"})
-    failing_on_call(monkeypatch, 2)  # the previous OUTDIR is set aside, then the new one cannot take its place
-    with pytest.raises(ParselError, match="out: cannot write: No space left on device"):
+    failing_on_call(monkeypatch, 2)  # the previous a.txt is set aside, then the new one cannot take its place
+    with pytest.raises(ParselError, match="out/a.txt: cannot write: No space left on device"):
         write_outdir(str(target), {"a.txt": "new"})
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert (target / "a.txt").read_text() == "old"

@@ -23,7 +23,7 @@ def test_a_misspelled_key_is_warned_about_once_with_the_closest_known_key(tmp_pa
     messages = sorted(str(w.message) for w in caught)
     assert messages == [
         f"{path}: [parsel] 'colour' is not a setting parsel reads and is ignored (known: cas_backend, "
-        "relation_tolerance)",
+        "relation_tolerance, and the max_* limits in the README)",
         f"{path}: [parsel] 'relation_tolerence' is not a setting parsel reads and is ignored; did you mean "
         "'relation_tolerance'?",
     ]
@@ -57,3 +57,14 @@ def test_a_bad_backend_name_names_its_source(tmp_path, monkeypatch):
     monkeypatch.setenv("PARSEL_CONFIG", str(path))
     with pytest.raises(ParselError, match=rf"'maxima' \(from cas_backend in {path}\)"):
         get_cas_backend()
+
+
+def test_limits_are_settings_too(tmp_path, monkeypatch):
+    path = tmp_path / "parsel.toml"
+    path.write_text("[parsel]\nmax_parts = 50\nmax_part = 3\n")
+    monkeypatch.setenv("PARSEL_CONFIG", str(path))
+    monkeypatch.setattr(config, "_warned", set())
+    with pytest.warns(config.ConfigWarning) as caught:
+        config.load_settings()
+    assert [str(w.message).split("ignored")[1] for w in caught] == ["; did you mean 'max_parts'?"]
+    assert config.limit("max_parts") == 50

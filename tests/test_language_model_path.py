@@ -109,5 +109,6 @@ def test_a_failed_run_keeps_the_previous_outdir(tmp_path, capsys):
     assert "paint the legs red" in record[0]["prompt"]
     fresh = tmp_path / "fresh"
     assert main(["edit", "tiny_table", "paint the legs red", "-o", str(fresh), "--samples", "1"]) == 2
-    assert sorted(p.name for p in fresh.iterdir()) == ["record.jsonl"]
-    assert f"the record of this run is in {fresh / 'record.jsonl'}" in capsys.readouterr().err
+    assert not fresh.exists()  # a failed run leaves no partial OUTDIR
+    assert f"no {fresh} is written; the record of this run is in {fresh}.failed-record.jsonl" in \
+        capsys.readouterr().err

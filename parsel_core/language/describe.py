@@ -32,6 +32,16 @@ def _fmt(value: float) -> str:
     return "0.000" if text == "-0.000" else text
 
 
+def _inline(text: object) -> str:
+    """A name as it may appear in a prompt: one line, control characters written as escapes.
+
+    Part ids and labels are checked when parts are made (``parsel_core.part.check_name``);
+    this keeps any other name (shape, relation ids) from starting a prompt line of its own.
+    """
+    text = str(text)
+    return text if text.isprintable() else "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def _vector_text(vector: Sequence[float]) -> str:
     return "(" + ", ".join(_fmt(v) for v in vector) + ")"
 
@@ -85,7 +95,7 @@ def describe_shape(shape: ShapeGraph) -> str:
     extent = corners.max(axis=0) - corners.min(axis=0)
     where = position_words(shape)
     lines = [
-        f'<shape name="{shape.name}" parts="{len(shape.parts)}" relations="{len(shape.relations)}">',
+        f'<shape name="{_inline(shape.name)}" parts="{len(shape.parts)}" relations="{len(shape.relations)}">',
         "Axes: +x is right, +y is up, +z is front (the left side is at -x as seen from the front).",
         f"Overall size: {_fmt(extent[0])} wide (x), {_fmt(extent[1])} tall (y), {_fmt(extent[2])} deep (z).",
         "Parts (id: label, position among parts of the same label; size along x, y, z; centre):",
@@ -93,17 +103,18 @@ def describe_shape(shape: ShapeGraph) -> str:
     for pid, part in shape.parts.items():
         c = part.hexahedron.corners
         size = c.max(axis=0) - c.min(axis=0)
-        lines.append(f"- {pid}: {part.label}, {where[pid] or 'single'}; size {_fmt(size[0])} x {_fmt(size[1])} x "
-                     f"{_fmt(size[2])}; centre {_vector_text(part.hexahedron.center)}")
+        lines.append(f"- {_inline(pid)}: {_inline(part.label)}, {where[pid] or 'single'}; size {_fmt(size[0])} x "
+                     f"{_fmt(size[1])} x {_fmt(size[2])}; centre {_vector_text(part.hexahedron.center)}")
     groups = [r for r in shape.relations.values() if r.kind in GROUP_KINDS]
     if groups:
         lines.append("Groups (a translation or rotation relation id also names its repeated parts as a whole):")
         for relation in groups:
             label = shape.parts[relation.members[0]].label
-            lines.append(f"- {relation.id}: the {len(relation.members)} {label} parts as one group")
+            lines.append(f"- {_inline(relation.id)}: the {len(relation.members)} {_inline(label)} parts as one "
+                         "group")
     lines.append("Relations:")
     for relation in shape.relations.values():
-        lines.append(f"- {relation.id}: {relation_sentence(relation)}")
+        lines.append(f"- {_inline(relation.id)}: {_inline(relation_sentence(relation))}")
     if not shape.relations:
         lines.append("- (none)")
     lines.append("</shape>")
@@ -119,7 +130,7 @@ def request_block(request: str) -> str:
 def relation_block(shape: ShapeGraph, relation_id: str) -> str:
     """The relation a validity prompt asks about."""
     relation = shape.relation(relation_id)
-    return f'<relation id="{relation.id}">{relation_sentence(relation)}</relation>'
+    return f'<relation id="{_inline(relation.id)}">{_inline(relation_sentence(relation))}</relation>'
 
 
 # -- reading the description back -------------------------------------------------------

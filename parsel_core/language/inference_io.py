@@ -1,16 +1,14 @@
 """Where the record of a failed inference goes, so that a failed run never costs a good one.
 
-``parsel edit ... -o OUTDIR`` writes the record of prompts and replies even when no edit
-could be inferred: it is what says why. When OUTDIR does not exist yet it is created
-holding only ``record.jsonl``; when it exists (a previous run's program and report), it is
-left untouched and the record goes beside it, to ``OUTDIR.failed-record.jsonl``. The
-error says which.
+``parsel edit ... -o OUTDIR`` keeps the record of prompts and replies even when no edit
+could be inferred: it is what says why. It goes *beside* OUTDIR, to
+``OUTDIR.failed-record.jsonl``, and never into it: an existing OUTDIR (a previous run's
+program and report) is left untouched and a missing one is not created, so a failed run
+leaves no partial output. The error says where the record went.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 from parsel_core.errors import ParselError
@@ -18,25 +16,20 @@ from parsel_core.io import atomic_write_text
 
 
 def failed_record_path(outdir: str | Path) -> Path:
-    """The file beside an existing OUTDIR that receives a failed run's record."""
+    """The file beside OUTDIR that receives a failed run's record."""
     target = Path(outdir)
     return target.with_name(f"{target.name}.failed-record.jsonl")
 
 
 def keep_failed_record(error: ParselError, outdir: str | Path, record_text: str) -> ParselError:
-    """Write a failed inference's record without touching a previous OUTDIR; returns the error
-    to raise, its message extended with where the record went."""
+    """Write a failed inference's record beside OUTDIR, never touching OUTDIR; returns the
+    error to raise, its message extended with where the record went."""
     target = Path(outdir)
+    path = failed_record_path(target)
     try:
-        if target.exists():
-            path = failed_record_path(target)
-            atomic_write_text(path, record_text)
-            note = f"{outdir} is kept as it was; the record of this run is in {path}"
-        else:
-            staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.resolve().parent))
-            atomic_write_text(staging / "record.jsonl", record_text)
-            os.replace(staging, target)
-            note = f"the record of this run is in {target / 'record.jsonl'}"
+        atomic_write_text(path, record_text)
+        kept = f"{outdir} is kept as it was" if target.exists() else f"no {outdir} is written"
+        note = f"{kept}; the record of this run is in {path}"
     except (OSError, ParselError) as exc:
         note = f"the record could not be written: {exc}"
     error.args = (f"{error} ({note})",)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 import tempfile
 import uuid
 from collections import deque
@@ -76,6 +77,12 @@ class OutputDir:
         path = Path(path)
         if path.exists() and not path.is_dir():
             raise ParselError(f"{path}: exists and is not a directory")
+        if path.is_dir() and not (path / RESULTS).exists():
+            others = sorted(e.name for e in path.iterdir() if not e.name.startswith(STAGING_PREFIX))
+            if others and not any((path / name / RESULT).is_file() for name in others):
+                # not a batch OUTDIR (nor one killed before its first log line): not this run's to repair
+                raise ParselError(f"{path}: holds files that are not a batch's results (e.g. {others[0]!r}); "
+                                  "choose an empty or new folder")
         try:
             path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
@@ -202,6 +209,42 @@ def run_serial(cases: Sequence[Case], defaults: RunDefaults) -> Iterator[CaseOut
         yield run_case(case, defaults)
 
 
+def die_with_parent(parent: int) -> None:
+    """Make this worker process end when the batch process that started it ends, however it ends.
+
+    On Linux the kernel sends SIGKILL when the parent dies (``PR_SET_PDEATHSIG``); a
+    watchdog thread covers other systems and the instant before the call. Ctrl-C is left
+    to the parent, which stops its workers itself, so workers print nothing on SIGINT.
+    """
+    import signal
+    import threading
+    import time
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    if os.getppid() != parent:  # the parent died before the call above
+        os._exit(1)
+    threading.Thread(target=watch, name="parsel-parent-watch", daemon=True).start()
+
+
+def start_worker(defaults: RunDefaults, parent: int) -> None:
+    """A local worker's initializer: tie its life to the parent's, then warm up."""
+    die_with_parent(parent)
+    warm_up(defaults)
+
+
 def warm_up(defaults: RunDefaults) -> None:
     """Load the plugins and the CAS backend once per worker, so the first case's time is its own."""
     from parsel_core.plugins import get_cas_backend, solvers
@@ -254,8 +297,8 @@ def _run_pools(cases: Sequence[Case], defaults: RunDefaults, workers: int, conte
     queue = deque(cases)
     suspects: deque[Case] = deque()  # in flight when a pool broke
     while queue or suspects:
-        executor = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=warm_up,
-                                       initargs=(defaults,))
+        executor = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=start_worker,
+                                       initargs=(defaults, os.getpid()))
         finished_normally = False
         try:
             broken = False
@@ -293,8 +336,22 @@ def _run_pools(cases: Sequence[Case], defaults: RunDefaults, workers: int, conte
                         yield future.result()
             finished_normally = True
         finally:
-            # Interrupted (Ctrl-C, the consumer stopped): do not wait for cases in flight.
+            # Interrupted (Ctrl-C, the consumer stopped): stop the cases in flight, do not wait for them.
+            if not finished_normally:
+                for process in list(getattr(executor, "_processes", {}).values()):
+                    process.terminate()
             executor.shutdown(wait=finished_normally, cancel_futures=True)
+
+
+def check_dask_address(address: str) -> None:
+    """``[tcp://]HOST:PORT`` with a port from 1 to 65535, refused in one line before any connection is tried."""
+    import re
+
+    if address.startswith("inproc://"):  # a cluster in this process (tests)
+        return
+    match = re.fullmatch(r"(?:(?:tcp|tls|ucx|ws|wss)://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(\d{1,5})", address)
+    if not match or not 1 <= int(match[2]) <= 65535:
+        raise ParselError(f"--dask {address!r}: expected a scheduler address like tcp://HOST:8786")
 
 
 def run_dask(cases: Sequence[Case], defaults: RunDefaults, address: str) -> Iterator[CaseOutcome]:
@@ -310,6 +367,7 @@ def run_dask(cases: Sequence[Case], defaults: RunDefaults, address: str) -> Iter
     except ImportError as exc:
         raise ParselError(f"--dask needs the Dask distributed client: pip install \"dask[distributed]\" ({exc})") \
             from None
+    check_dask_address(address)
     try:
         client = Client(address, timeout=30)
     except (OSError, TimeoutError) as exc:

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from parsel_batch.batch import ordered, read_results, run_batch, run_cases
+from parsel_batch.batch import check_dask_address, ordered, read_results, run_batch, run_cases
 from parsel_batch.cases import Case, read_cases
 from parsel_batch.metrics import summarise
 from parsel_batch.runner import RunDefaults
@@ -127,6 +127,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise ParselError("--workers must be 0 (in this process) or more")
     if args.dask and args.workers is not None:
         raise ParselError("--workers and --dask exclude each other (the cluster decides its workers)")
+    if args.dask:
+        check_dask_address(args.dask)  # before OUTDIR is made
     workers = available_cpus() if args.workers is None else args.workers
     try:
         summary = run_batch(cases, args.output, workers=workers, dask=args.dask,

@@ -218,3 +218,100 @@ def test_batch_json_summary(tmp_path, capsys, monkeypatch):
     assert data["failures"][0]["id"] == "bad" and data["failures"][0]["type"] == "UnknownPartError"
     assert data["summary"]["ok"] == 1 and data["where"] == "this process"
     assert "\r" not in captured.err and captured.err.splitlines()[-1].startswith("cases: 2/2")  # lines, not a bar
+
+
+def _children(pid: int) -> set[int]:
+    """Process ids whose parent is ``pid`` (from /proc)."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                found.add(int(entry.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def _batch_with_workers(tmp_path, workers: int = 2):
+    """A running ``parsel batch`` (own session) and its worker processes, once they are working."""
+    path = cases_file(tmp_path, SEEDS)
+    command = [sys.executable, "-m", "parsel_core.cli", "batch", str(path), "-o", str(tmp_path / "out"),
+               "--workers", str(workers), "--no-progress"]
+    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 240
+    results = tmp_path / "out" / RESULTS
+    while time.monotonic() < deadline and process.poll() is None:
+        if results.exists() and results.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.02)
+    assert process.poll() is None, "the batch ended too early: " + process.stderr.read().decode()
+    workers_now = {pid for pid in _children(process.pid) if _alive(pid)}
+    assert workers_now, "no worker process found"
+    return process, workers_now
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_batch_killed_with_sigkill_leaves_no_worker_process(tmp_path):
+    process, workers = _batch_with_workers(tmp_path)
+    try:
+        os.kill(process.pid, signal.SIGKILL)  # the parent only: nobody signals the workers
+        process.wait()
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
+            time.sleep(0.05)
+        assert not [pid for pid in workers if _alive(pid)], "workers outlived their batch"
+    finally:
+        try:
+            os.killpg(process.pid, signal.SIGKILL)
+        except OSError:
+            pass
+        process.stderr.close()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_ctrl_c_stops_a_batch_and_its_workers_quietly(tmp_path):
+    process, workers = _batch_with_workers(tmp_path)
+    try:
+        os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the whole process group
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    err = err.decode()
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert "interrupted" in err
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(pid) for pid in workers):
+        time.sleep(0.05)
+    assert not [pid for pid in workers if _alive(pid)]
+
+
+def test_a_folder_of_other_files_is_not_taken_for_a_batch_outdir(tmp_path, capsys):
+    path = cases_file(tmp_path, SEEDS[:1])
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "thesis.txt").write_text("years of work")
+    assert main(["batch", str(path), "-o", str(docs), "--workers", "0", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "thesis.txt" in err
+    assert sorted(p.name for p in docs.iterdir()) == ["thesis.txt"]
+
+
+def test_a_bad_dask_address_is_refused_before_outdir_is_made(tmp_path, capsys):
+    path = cases_file(tmp_path, SEEDS[:1])
+    for address in ("nonsense", "tcp://:-1", "tcp://host:70000"):
+        assert main(["batch", str(path), "-o", str(tmp_path / "res"), "--dask", address, "--no-progress"]) == 2
+        assert "expected a scheduler address" in capsys.readouterr().err
+    assert not (tmp_path / "res").exists()

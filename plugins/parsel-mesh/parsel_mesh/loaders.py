@@ -56,6 +56,12 @@ def check_mesh(mesh: Any, where: str) -> np.ndarray:
         raise ParselError(f"{where} has no faces")
     if not np.all(np.isfinite(vertices)):
         raise ParselError(f"{where} has NaN or infinite vertex coordinates")
+    from parsel_core.config import limit
+
+    bound = limit("max_magnitude")
+    if np.abs(vertices).max(initial=0.0) > bound:
+        raise ParselError(f"{where} has vertex coordinates over the limit max_magnitude = {bound:g} "
+                          "(raise it with PARSEL_MAX_MAGNITUDE)")
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise ParselError(f"{where} has faces that index missing vertices")
     return vertices[np.unique(faces)]
@@ -83,6 +89,10 @@ def shape_from_meshes(meshes: Mapping[str, Any] | Sequence[tuple[str, Any]], *, 
     where = source or name
     if not items:
         raise ParselError(f"{where}: {NO_NAMED_PARTS}")
+    from parsel_core.config import check_limit
+
+    check_limit("max_parts", f"{where}: parts", len(items))
+    check_limit("max_faces", f"{where}: faces", sum(len(getattr(m, "faces", ())) for _, m in items))
     names = [n for n, _ in items]
     if len(set(names)) != len(names):
         twice = sorted({n for n in names if names.count(n) > 1}, key=natural_key)
@@ -105,6 +115,10 @@ def read_scene(path: Path) -> NamedMeshes:
     """
     import trimesh
 
+    if path.suffix.lower() in (".glb", ".gltf"):
+        from parsel_mesh.gltf_check import check_gltf
+
+        check_gltf(path)  # cycles, non-finite transforms and sizes, before trimesh walks it
     try:
         scene = trimesh.load(str(path), force="scene", process=False)
     except Exception as exc:  # trimesh raises many types for malformed files
@@ -166,6 +180,7 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
     counts = {"v": 0, "vt": 0, "vn": 0}
     obj = group = material = None
     declared: list[str] = []  # object names in file order
+    runs: list[str] = []  # object names as their blocks start
     for line in text.split("\n"):
         key, rest = (line.split(None, 1) + ["", ""])[:2]
         rest = rest.strip()
@@ -175,6 +190,8 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
                 counts[key] += 1
         elif key == "o":
             obj = rest or None
+            if obj is not None:
+                runs.append(obj)
             if obj is not None and obj not in declared:
                 declared.append(obj)
         elif key == "g":
@@ -193,6 +210,9 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
         empty = [name for name in declared if name not in objects]
         if empty:
             raise ValueError(f"part {empty[0]!r} has no faces")
+        twice = sorted({name for name in runs if runs.count(name) > 1})
+        if twice:
+            raise ValueError(f"duplicate part name(s) {', '.join(map(repr, twice))} (two 'o' blocks of one name)")
     orphans = sum(1 for f in faces if f[column] is None)
     if orphans:
         raise ValueError(f"{orphans} face(s) come before the first '{directive}' line and belong to no part")
@@ -208,28 +228,73 @@ def split_obj(text: str) -> tuple[list[str], dict[str, list[str]]]:
     return shared, parts
 
 
+_OBJ_INDEXED = ("v", "vt", "vn")
+
+
+def obj_part_chunk(name: str, lines: Sequence[str], tables: Mapping[str, Sequence[str]],
+                   others: Sequence[str]) -> str:
+    """One part as an OBJ of its own: only the vertex data its faces use, renumbered.
+
+    Handing each part the whole file's vertex data would make reading a file of many
+    parts cost parts x vertices; the used entries keep their file order, as trimesh
+    would keep them. Raises ``ValueError`` for an index that is not an entry of the file.
+    """
+    used: dict[str, set[int]] = {kind: set() for kind in _OBJ_INDEXED}
+    faces = [line.split()[1:] if line.startswith("f ") else None for line in lines]
+    for tokens in faces:
+        for token in tokens or ():
+            for k, value in enumerate(token.split("/")[:3]):
+                if value:
+                    index = int(value)
+                    if not 1 <= index <= len(tables[_OBJ_INDEXED[k]]):
+                        raise ValueError(f"face index {index} is not one of the file's {_OBJ_INDEXED[k]} lines")
+                    used[_OBJ_INDEXED[k]].add(index)
+    renumber = {kind: {old: new for new, old in enumerate(sorted(used[kind]), start=1)} for kind in _OBJ_INDEXED}
+    body = []
+    for line, tokens in zip(lines, faces):
+        if tokens is None:
+            body.append(line)
+            continue
+        out = []
+        for token in tokens:
+            fields = token.split("/")
+            for k, value in enumerate(fields[:3]):
+                if value:
+                    fields[k] = str(renumber[_OBJ_INDEXED[k]][int(value)])
+            out.append("/".join(fields))
+        body.append("f " + " ".join(out))
+    data = [tables[kind][old - 1] for kind in _OBJ_INDEXED for old in sorted(used[kind])]
+    return "\n".join([*others, *data, f"o {name}", *body]) + "\n"
+
+
 def read_obj(path: Path) -> NamedMeshes:
     """OBJ objects (or groups) as parts, each read by trimesh with the file's materials.
 
-    Each part is handed to trimesh as the shared vertex data plus its own faces, so the
-    split does not depend on the trimesh version's object / group options; trimesh
-    keeps only the vertices a part's faces use.
+    Each part is handed to trimesh as the vertex data its faces use plus those faces
+    (:func:`obj_part_chunk`), so the split does not depend on the trimesh version's
+    object / group options.
     """
     import trimesh
+
+    from parsel_core.config import check_limit
 
     try:
         text = path.read_bytes().decode("utf-8", errors="replace")
         shared, parts = split_obj(text)
+        check_limit("max_parts", f"{path}: parts", len(parts))  # each part is read on its own: check first
+        check_limit("max_vertices", f"{path}: vertices", sum(line.startswith("v ") for line in shared))
+        check_limit("max_faces", f"{path}: faces", sum(len(lines) for lines in parts.values()))
     except OSError as exc:
         raise ParselError(f"{path}: cannot read: {exc.strerror}") from None
     except ValueError as exc:
         raise ParselError(f"{path}: {exc}") from None
     resolver = trimesh.resolvers.FilePathResolver(str(path))
-    header = "\n".join(shared)
+    tables = {kind: [line for line in shared if line.startswith(kind + " ")] for kind in _OBJ_INDEXED}
+    others = [line for line in shared if line.split(" ", 1)[0] not in _OBJ_INDEXED]
     out: NamedMeshes = []
     for name, lines in parts.items():
-        chunk = f"{header}\no {name}\n" + "\n".join(lines) + "\n"
         try:
+            chunk = obj_part_chunk(name, lines, tables, others)
             mesh = trimesh.load(io.BytesIO(chunk.encode("utf-8")), file_type="obj", resolver=resolver,
                                 force="mesh", process=False)
         except Exception as exc:
@@ -257,6 +322,9 @@ def _part_names(comments: Sequence[str], path: Path) -> dict[int, str]:
 def _split_tagged(path: Path, mesh: Any, tags: np.ndarray, names: Mapping[int, str]) -> NamedMeshes:
     """One mesh per declared part from a merged mesh and per-face part indices."""
     tags = np.asarray(tags).astype(np.int64).ravel()
+    faces = np.asarray(mesh.faces)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(mesh.vertices)):
+        raise ParselError(f"{path}: faces index missing vertices (a vertex index past the end)")
     if len(tags) != len(mesh.faces):
         raise ParselError(f"{path}: {len(tags)} part indices for {len(mesh.faces)} faces "
                           f"(part-tagged files must be triangles)")

@@ -69,12 +69,16 @@ class ShapeAssemblyLoader(ShapeLoader):
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
             raise ParselError(f"{path}: cannot read: {exc}") from None
+        from parsel_core.config import check_limit
+
+        check_limit("max_program_lines", f"{path}: lines", text.count("\n") + 1)
         try:
             executed = execute(text, source=str(path))
         except ShapeAssemblyError as exc:
             raise ParselError(str(exc)) from None
         if not executed.cuboids:
             raise ParselError(f"{path}: the program has no leaf cuboids")
+        check_limit("max_parts", f"{path}: leaf cuboids", len(executed.cuboids))  # before labelling them
         hexahedra = {c.name: Hexahedron.canonical_box(c.center, c.dims, c.axes) for c in executed.cuboids}
         category = path.parent.name if path.parent.name in CATEGORIES else None
         labels = label_parts(category, {n: h.corners for n, h in hexahedra.items()})

@@ -50,6 +50,8 @@ AXES: tuple[str, ...] = ("X", "Y", "Z")
 SUBPROGRAM_PREFIX = "Program_"
 # Far above the corpus maximum (36); guards against runaway input.
 MAX_TRANSLATE_COUNT = 1000
+#: Thinner cuboids have no usable cage (their corner Jacobians vanish in float64).
+MIN_DIMENSION = 1e-6
 
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 _NAME_RE = re.compile(rf"^{_NAME}$")
@@ -189,9 +191,15 @@ def _number(ctx: _LineCtx, token: str, what: str) -> float:
     """Parse a finite decimal literal (no ``nan``/``inf``/underscores)."""
     if not _NUMBER_RE.match(token):
         raise ctx.error(f"{what}: expected a number, got {token!r}")
+    from parsel_core.config import limit
+
     value = float(token)
     if not math.isfinite(value):  # a literal too large for a double, 1e400
-        raise ctx.error(f"{what}: {token} is too large")
+        raise ctx.error(f"{what}: {token[:40]} is too large")
+    bound = limit("max_magnitude")
+    if abs(value) > bound:
+        raise ctx.error(f"{what}: {token[:40]} is over the limit max_magnitude = {bound:g} "
+                        "(raise it with PARSEL_MAX_MAGNITUDE)")
     return value
 
 
@@ -210,8 +218,9 @@ def _expect_count(ctx: _LineCtx, command: str, args: list[str], counts: tuple[in
 def _parse_cuboid(ctx: _LineCtx, name: str, args: list[str]) -> CuboidStmt:
     _expect_count(ctx, "Cuboid", args, (3, 4))
     dims = tuple(_number(ctx, a, f"Cuboid() dimension {i + 1}") for i, a in enumerate(args[:3]))
-    if min(dims) <= 0.0:
-        raise ctx.error(f"Cuboid() dimensions must be positive, got {', '.join(args[:3])}")
+    if min(dims) < MIN_DIMENSION:
+        raise ctx.error(f"Cuboid() dimensions must be positive (at least {MIN_DIMENSION:g}), got "
+                        f"{', '.join(a[:40] for a in args[:3])}")
     aligned = False
     if len(args) == 4:
         if args[3] not in ("True", "False"):

@@ -11,9 +11,11 @@ from pathlib import Path
 def cmd_view(args: argparse.Namespace) -> int:
     """Serve the slider page of OUTDIR's program on 127.0.0.1, or write it as one file with --html."""
     from parsel_view.inputs import read_inputs
-    from parsel_view.page import PageServer, write_html
+    from parsel_view.page import PageServer, check_port, write_html
     from parsel_view.scene import build_page_data
 
+    if not args.html:
+        check_port(args.port)  # before the page is built
     inputs = read_inputs(args.outdir, args.shape)
     page = build_page_data(inputs.program, inputs.shape,
                            meta={"sources": [str(p) for p in inputs.sources], "shape": inputs.shape_spec})
@@ -57,7 +59,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         program.validate(shape)
     except ParselError as exc:
         raise ParselError(f"{path}: does not match shape {shape.name!r}: {exc}") from None
-    options = {"resolution": args.resolution} if args.resolution else {}
+    options = {"resolution": args.resolution} if args.resolution is not None else {}
     draw_filmstrip(shape, program, output, frames=args.frames, parameter=args.param,
                    values=parse_assignments(args.set), remesh=args.remesh, remesh_options=options)
     print(output)

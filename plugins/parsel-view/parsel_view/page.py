@@ -83,6 +83,12 @@ def write_html(page: PageData, path: Path | str) -> Path:
     return path
 
 
+def check_port(port: object) -> None:
+    """A port parsel may serve on: 0 (any free one) or 1024-65535 (not a privileged port)."""
+    if isinstance(port, bool) or not isinstance(port, int) or not (port == 0 or 1024 <= port <= 65535):
+        raise ParselError(f"--port {port!r}: choose a port from 1024 to 65535, or 0 for any free one")
+
+
 @dataclass
 class PageServer:
     """The page and its pieces served on 127.0.0.1 from memory by :mod:`http.server`.
@@ -115,11 +121,17 @@ class PageServer:
 
     def start(self) -> str:
         """Bind and serve in a background thread; returns the page's URL."""
+        check_port(self.port)
         routes = self.routes()
         quiet = self.quiet
+        hosts: set[str] = set()  # filled once the port is known
 
         class Handler(BaseHTTPRequestHandler):
             def do_GET(self) -> None:  # noqa: N802 - http.server's name
+                if (self.headers.get("Host") or "").lower() not in hosts:
+                    # Another site's page reaching 127.0.0.1 under its own name (DNS rebinding).
+                    self.send_error(421, "this page answers only to 127.0.0.1 and localhost")
+                    return
                 path = self.path.split("?", 1)[0]
                 if path not in routes:
                     self.send_error(404, "not part of this page")
@@ -142,6 +154,8 @@ class PageServer:
             raise ParselError(f"cannot serve on 127.0.0.1:{self.port}: {exc.strerror} "
                               f"(choose another --port, or 0 for any free one)") from None
         self._server.daemon_threads = True
+        port = self._server.server_address[1]
+        hosts.update({f"127.0.0.1:{port}", f"localhost:{port}"})
         self._thread = threading.Thread(target=self._server.serve_forever, name="parsel-view", daemon=True)
         self._thread.start()
         return self.url

@@ -41,11 +41,11 @@ const model = new ParselEval.Model(scene, program.amounts, program.pointMaps);
 const plain = (c) => Array.from(c, (v) => (Number.isNaN(v) ? null : v));
 const results = JSON.parse(fs.readFileSync(valuesPath, "utf8")).map((values) => {
   const evaluation = model.evaluate(values);
-  const parts = {};
+  const parts = Object.create(null);
   for (const pid in evaluation.parts) parts[pid] = plain(evaluation.parts[pid]);
-  const instances = {};
+  const instances = Object.create(null);
   for (const g in evaluation.instances) instances[g] = evaluation.instances[g].map(plain);
-  const vertices = {}, flipped = [];
+  const vertices = Object.create(null), flipped = [];
   for (const item of model.drawList(evaluation)) {
     vertices[item.name] = plain(model.deformInto(item.mesh, item.corners));
     if (model.flipped(item.mesh, item.corners)) flipped.push(item.name);

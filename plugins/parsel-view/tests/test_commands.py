@@ -175,3 +175,33 @@ def test_busy_port_is_a_one_line_error(outdir):
 def test_static_files_cannot_end_an_inline_script():
     for name in page_module.STATIC_FILES:
         assert "</script" not in page_module.static_text(name).lower()
+
+
+def test_server_answers_only_to_its_own_host_names(outdir):
+    """A page of another site reaching 127.0.0.1 under its own name (DNS rebinding) gets nothing."""
+    import http.client
+
+    inputs = read_inputs([str(outdir)])
+    with PageServer(build_page_data(inputs.program, inputs.shape), port=0) as server:
+        port = int(server.url.rsplit(":", 1)[1].strip("/"))
+        for host, status in ((f"127.0.0.1:{port}", 200), (f"localhost:{port}", 200), (f"LOCALHOST:{port}", 200),
+                             (f"evil.example:{port}", 421), ("127.0.0.1", 421), ("", 421)):
+            connection = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+            connection.putrequest("GET", "/scene.json", skip_host=True)
+            if host:
+                connection.putheader("Host", host)
+            connection.endheaders()
+            response = connection.getresponse()
+            body = response.read()
+            connection.close()
+            assert response.status == status, host
+            assert (b'"shape"' in body) == (status == 200)
+
+
+@pytest.mark.parametrize("port", ["-1", "70000", "80", "1023"])
+def test_ports_outside_1024_65535_are_one_line_errors(port, outdir, capsys):
+    from parsel_core.cli import main
+
+    assert main(["view", str(outdir), "--port", port, "--no-browser"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "choose a port from 1024 to 65535" in err

@@ -145,3 +145,17 @@ def test_hexahedra_only_shapes_are_drawn_as_boxes(parsel_shape):
                                    reference.instances["slat_row"], atol=1e-12)
         np.testing.assert_allclose(np.array(result["vertices"]["top"]).reshape(8, 3), reference.parts["top"],
                                    atol=1e-6)
+
+
+def test_parts_named_like_javascript_object_members_show_on_the_page():
+    """Names such as ``constructor`` or ``__proto__`` are plain keys in the page's tables."""
+    names = ["constructor", "__proto__", "toString", "hasOwnProperty", "valueOf", "seat"]
+    shape = shape_from_meshes({name: box_mesh((2.0 * i, 0, 0), (2.0 * i + 1, 1, 1)) for i, name in enumerate(names)},
+                              name="hostile")
+    assert sorted(shape.parts) == sorted(names)
+    program = Program.from_text("translate(constructor, dir=(0, 1, 0), amount=x)\n"
+                                "scale_1d('__proto__', origin=(2, 0, 0), dir=(1, 0, 0), amount=x)\n")
+    results = assert_same(program, shape, [{"x": 0.0}, {"x": 0.5}])
+    assert sorted(results[1]["vertices"]) == sorted(names)  # every part is drawn
+    moved = np.array(results[1]["parts"]["constructor"]).reshape(8, 3)
+    assert moved[:, 1].min() == pytest.approx(0.5)

@@ -236,16 +236,22 @@
     return orientations(c)[8];
   }
 
+  /* A lookup table keyed by part, group or parameter names: no prototype, so names such as
+     "constructor", "toString" or "__proto__" are plain keys, never inherited members. */
+  function table() {
+    return Object.create(null);
+  }
+
   /* A program on a shape: evaluate(values) gives corners; deform(...) moves the meshes. */
   function Model(scene, amounts, pointMaps) {
     this.scene = scene;
     this.amountFns = amounts;
     this.pointMaps = pointMaps || {};
     this.parameters = scene.parameters;
-    this.rest = {};
+    this.rest = table();
     for (var pid in scene.rest) this.rest[pid] = Float64Array.from(scene.rest[pid]);
-    this.meshes = {};
-    this.replaced = {};
+    this.meshes = table();
+    this.replaced = table();
     for (var i = 0; i < scene.meshes.length; i++) {
       var m = scene.meshes[i];
       var uvw = decodeBase64(m.uvw, Float64Array);
@@ -260,7 +266,7 @@
   }
 
   Model.prototype.defaults = function () {
-    var values = {};
+    var values = table();
     for (var i = 0; i < this.parameters.length; i++) values[this.parameters[i].name] = this.parameters[i].default;
     return values;
   };
@@ -283,7 +289,7 @@
 
   /* {parts: {id: Float64Array(24)}, instances: {group: [Float64Array(24)]}, removed: {id: true}} */
   Model.prototype.evaluate = function (values) {
-    var amounts = this.amounts(values), parts = {}, pid, i, t;
+    var amounts = this.amounts(values), parts = table(), pid, i, t;
     for (pid in this.rest) parts[pid] = Float64Array.from(this.rest[pid]);
     var ops = this.scene.ops;
     for (i = 0; i < ops.length; i++) {
@@ -296,7 +302,7 @@
         applyOp(ops[i], parts[ops[i].targets[t]], amounts[i], generated);
       }
     }
-    var instances = {}, removed = {};
+    var instances = table(), removed = table();
     for (i = 0; i < this.scene.groups.length; i++) {
       var g = this.scene.groups[i], members = [];
       for (t = 0; t < g.members.length; t++) members.push(parts[g.members[t]]);
@@ -359,7 +365,7 @@
   };
 
   var api = {
-    Model: Model, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
+    Model: Model, table: table, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
     trilinearWeights: trilinearWeights, applyOp: applyOp, translationLayout: translationLayout,
     rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
   };

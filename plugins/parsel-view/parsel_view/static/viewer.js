@@ -9,8 +9,8 @@
   "use strict";
 
   var state = {
-    model: null, renderer: null, camera: null, values: {}, evaluation: null, base: null, groups: [],
-    names: [null], hovered: 0, frameRequested: false, pickAt: null, updates: 0, frames: 0, sliders: {},
+    model: null, renderer: null, camera: null, values: ParselEval.table(), evaluation: null, base: null, groups: [],
+    names: [null], hovered: 0, frameRequested: false, pickAt: null, updates: 0, frames: 0, sliders: ParselEval.table(),
     measuring: false
   };
 
@@ -84,7 +84,7 @@
       if (!model.replaced[m.id]) slots.push({ name: m.id, mesh: m.id, id: newId(m.id, m.label) });
     }
     state.base = buildBatch(slots);
-    state.base.byName = {};
+    state.base.byName = ParselEval.table();
     slots.forEach(function (s) { state.base.byName[s.name] = s; });
     state.groups = model.scene.groups.map(function (g) {
       return { id: g.id, member: g.members[0], label: model.meshes[g.members[0]].label, ids: [], drawn: null, shown: 0 };
@@ -295,7 +295,7 @@
     return {
       ready: true,
       parameters: function () { return state.model.parameters; },
-      values: function () { return Object.assign({}, state.values); },
+      values: function () { return Object.assign(ParselEval.table(), state.values); },
       set: function (name, value) {
         var slider = state.sliders[name];
         if (!slider) throw new Error("no parameter " + name);

@@ -1,0 +1,196 @@
+"""Output folders (``-o OUTDIR``): parsel never deletes or replaces a file it did not write.
+
+An OUTDIR parsel wrote holds a manifest (``.parsel-manifest.json``) naming the files it
+wrote there. Writing into a folder:
+
+* a missing folder is filled in a hidden staging folder beside it and renamed into place,
+  so it appears whole or not at all;
+* a folder with a manifest (an earlier parsel output) gets the new files; the files the
+  earlier manifest names and this run does not write are removed; every other file stays;
+* an empty folder is used as it is; a non-empty folder without a manifest is refused
+  unless ``force``, and even then only the files parsel writes are replaced;
+* the working directory (``-o .``), one of its ancestors and ``-o ""`` are refused.
+
+New files are staged first; the files they replace are set aside and put back if any
+step fails, so a failed run leaves the folder as it was.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from parsel_core.errors import ParselError
+
+MANIFEST = ".parsel-manifest.json"
+#: Staging folders carry the writer's process id, so a later run can remove those a killed run left.
+STAGING_INSIDE = ".parsel-staging-"
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def _remove_dead_staging(folder: Path, prefix: str) -> None:
+    """Remove staging folders named ``<prefix><pid>-...`` whose writer is no longer running."""
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return
+    for entry in entries:
+        if not entry.name.startswith(prefix) or not entry.is_dir() or entry.is_symlink():
+            continue
+        pid = entry.name[len(prefix):].split("-", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            shutil.rmtree(entry, ignore_errors=True)
+
+
+def _sibling_prefix(target: Path) -> str:
+    return f".{target.name}.parsel-"
+
+
+def read_manifest(folder: Path) -> set[str] | None:
+    """The file names an earlier parsel run wrote in ``folder``; ``None`` without a usable manifest."""
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(data, dict) or data.get("format") != "parsel.output" or not isinstance(data.get("files"), list):
+        return None
+    return {name for name in data["files"] if _plain_name(name)}
+
+
+def _plain_name(name: object) -> bool:
+    return (isinstance(name, str) and name not in ("", ".", "..", MANIFEST) and "/" not in name
+            and "\\" not in name and "\0" not in name)
+
+
+def check_output_dir(outdir: str, force: bool = False) -> Path:
+    """Refuse an OUTDIR parsel may not write (before any expensive work); the path to write."""
+    if not isinstance(outdir, str) or not outdir.strip():
+        raise ParselError('-o "": an output directory is needed')
+    target = Path(outdir)
+    try:
+        resolved = target.resolve()
+        cwd = Path.cwd().resolve()
+    except (OSError, RuntimeError) as exc:
+        raise ParselError(f"{outdir}: cannot resolve the output directory: {exc}") from None
+    if resolved == cwd or resolved in cwd.parents:
+        raise ParselError(f"-o {outdir}: is the working directory or one of its parents; name a folder of its own")
+    if not resolved.parent.is_dir():
+        raise ParselError(f"{outdir}: parent directory {resolved.parent} does not exist")
+    if target.exists() and not target.is_dir():
+        raise ParselError(f"{outdir}: exists and is not a directory")
+    if target.is_dir() and read_manifest(target) is None and not force:
+        try:
+            others = [e.name for e in target.iterdir() if not e.name.startswith(STAGING_INSIDE)]
+        except OSError as exc:
+            raise ParselError(f"{outdir}: cannot read the output directory: {exc.strerror}") from None
+        if others:
+            raise ParselError(f"{outdir}: holds files parsel did not write ({len(others)} entries, e.g. "
+                              f"{sorted(others)[0]!r}); choose another folder, or --force to write parsel's "
+                              "files beside them")
+    return target
+
+
+def _manifest_text(names: list[str]) -> str:
+    return json.dumps({"format": "parsel.output", "version": 1, "files": sorted(names)}, indent=1) + "\n"
+
+
+def write_outdir(outdir: str, files: dict[str, str], force: bool = False) -> None:
+    """Write ``files`` (name -> text) into OUTDIR as the module docstring says: all or nothing."""
+    target = check_output_dir(outdir, force)
+    for name in files:
+        if not _plain_name(name):
+            raise ParselError(f"{outdir}: {name!r} is not a plain file name")
+    if target.is_dir():
+        _write_into_existing(outdir, target, files)
+    else:
+        _write_new(outdir, target, files)
+
+
+def _write_new(outdir: str, target: Path, files: dict[str, str]) -> None:
+    parent = target.resolve().parent
+    _remove_dead_staging(parent, _sibling_prefix(target))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f"{_sibling_prefix(target)}{os.getpid()}-", dir=parent))
+    except OSError as exc:
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
+    try:
+        os.chmod(staging, 0o777 & ~_umask())  # mkdtemp makes 0700 folders; give the usual permissions
+        for name, text in files.items():
+            (staging / name).write_text(text, encoding="utf-8")
+        (staging / MANIFEST).write_text(_manifest_text(list(files)), encoding="utf-8")
+        os.replace(staging, target)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+
+
+def _write_into_existing(outdir: str, target: Path, files: dict[str, str]) -> None:
+    previous = read_manifest(target) or set()
+    names = [*files, MANIFEST]  # the manifest last: it names only files that are in place
+    for name in names:
+        if (target / name).is_dir() and not (target / name).is_symlink():
+            raise ParselError(f"{target / name}: is a directory; parsel writes a file of that name")
+    _remove_dead_staging(target, STAGING_INSIDE)
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f"{STAGING_INSIDE}{os.getpid()}-", dir=target))
+    except OSError as exc:
+        raise ParselError(f"{outdir}: cannot write: {exc.strerror}") from None
+    new, old = staging / "new", staging / "old"
+    moved: list[str] = []
+    kept: list[str] = []  # names whose previous file was set aside in ``old``
+    current = target
+
+    def roll_back() -> None:
+        for name in moved:
+            (target / name).unlink(missing_ok=True)
+        for name in kept:
+            os.replace(old / name, target / name)
+
+    try:
+        new.mkdir()
+        old.mkdir()
+        for name, text in files.items():
+            current = target / name
+            (new / name).write_text(text, encoding="utf-8")
+        (new / MANIFEST).write_text(_manifest_text(list(files)), encoding="utf-8")
+        for name in names:
+            current = target / name
+            if os.path.lexists(target / name):
+                os.replace(target / name, old / name)
+                kept.append(name)
+            os.replace(new / name, target / name)
+            moved.append(name)
+    except OSError as exc:
+        roll_back()
+        shutil.rmtree(staging, ignore_errors=True)
+        raise ParselError(f"{current}: cannot write: {exc.strerror}") from None
+    except BaseException:
+        roll_back()
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    shutil.rmtree(staging, ignore_errors=True)
+    for name in sorted(previous - set(names)):  # files an earlier run wrote and this one does not
+        stale = target / name
+        if stale.is_file() and not stale.is_symlink():
+            stale.unlink(missing_ok=True)

@@ -11,13 +11,15 @@ parsel with the plugin and runs them.
 from __future__ import annotations
 
 import keyword
+import os
 import re
+import shutil
+import tempfile
 from importlib import resources
 from pathlib import Path
 from string import Template
 
 from parsel_core.errors import ParselError
-from parsel_core.io import write_outdir
 
 TEMPLATE_PACKAGE = "parsel_core"
 TEMPLATE_FOLDER = "plugin_template"
@@ -59,5 +61,26 @@ def write_plugin(name: str, target: str | Path) -> list[Path]:
     if target.exists():
         raise ParselError(f"{target}: already exists; give a new folder for the plugin package")
     files = plugin_files(name)
-    write_outdir(target, files)
+    _write_new_folder(target, files)
     return [target / p for p in sorted(files)]
+
+
+def _write_new_folder(target: Path, files: dict[str, str]) -> None:
+    """Write a package tree (sub-folders included) into a hidden sibling, then rename it into
+    place: a failure leaves nothing behind."""
+    parent = target.resolve().parent
+    if not parent.is_dir():
+        raise ParselError(f"{target}: parent directory {parent} does not exist")
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    except OSError as exc:
+        raise ParselError(f"{target}: cannot write: {exc.strerror}") from None
+    try:
+        for relative, text in files.items():
+            (staging / relative).parent.mkdir(parents=True, exist_ok=True)
+            (staging / relative).write_text(text, encoding="utf-8")
+        staging.chmod(0o755)
+        os.replace(staging, target)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise ParselError(f"{target}: cannot write: {exc.strerror}") from None

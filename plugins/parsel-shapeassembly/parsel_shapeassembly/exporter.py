@@ -54,7 +54,7 @@ from parsel_core.relations import Attachment, ReflectionSymmetry, TranslationSym
 from parsel_core.report import tolerance_for
 from parsel_shapeassembly.cuboids import Box, fit_box, in_frame, same_frame
 from parsel_shapeassembly.interpreter import execute
-from parsel_shapeassembly.parser import SUBPROGRAM_PREFIX
+from parsel_shapeassembly.parser import MIN_DIMENSION, SUBPROGRAM_PREFIX
 
 #: A hexahedron whose corners lie within this fraction of the diagonal of a cuboid is a cuboid.
 CUBOID_TOLERANCE = 1e-9
@@ -165,7 +165,7 @@ def collect_leaves(shape: ShapeGraph, evaluation: Evaluation) -> list[Leaf]:
     """Every cuboid of the edited shape, in part order; a re-laid-out group's instances
     stand where its first member stood."""
     replaced = {m: g for g in evaluation.instances for m in shape.relation(g).members}
-    thinnest = 1e-9 * (shape.size or 1.0)  # ShapeAssembly cuboids need positive sides
+    thinnest = MIN_DIMENSION  # the interpreter refuses cuboids thinner than this
 
     def fitted(corners) -> tuple[Box, float]:
         box, deviation = fit_box(np.asarray(corners, dtype=float))

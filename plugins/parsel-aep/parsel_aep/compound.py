@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from parsel_aep.candidates import _vec
 from parsel_core.hexahedron import Hexahedron
 from parsel_core.ops import EditOp, Scale1D, Scale2D, Scale3D, Translate
 
@@ -54,17 +55,9 @@ class Compound:
             out = op.apply(out, amounts[..., i, None, None], math)
         return out
 
-    def params(self) -> dict:
-        return {"family": self.family, "basis": tuple((op.name, tuple(sorted(op.params().items())))
-                                                      for op in self.basis)}
-
 
 def _translations(part: str) -> tuple[EditOp, ...]:
     return tuple(Translate(part, "f", dir=axis) for axis in AXES)
-
-
-def _vec(v) -> tuple[float, float, float]:
-    return tuple(float(c) + 0.0 for c in np.round(np.asarray(v, dtype=float), 12))
 
 
 def compound_candidates(part: str, hexahedron: Hexahedron, directions: Sequence[np.ndarray],

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from parsel_aep import cluster as cluster_module
 from parsel_aep.candidates import (
     HINT_TYPES,
     SIMPLICITY,
@@ -58,6 +59,8 @@ from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, Tran
 from parsel_core.report import check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
+#: Ops the joint pass can redo with scalings and translations (cluster.py).
+BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
 
 
 @dataclass(frozen=True)
@@ -75,6 +78,8 @@ class AEPOptions:
     repair: int = 2
     #: Whether that second look may also take breaking-edits that lower the total error.
     repair_breaking: bool = True
+    #: Rings of neighbours around the broken relations solved jointly (cluster.py; 0: off).
+    joint: int = 3
 
     @classmethod
     def from_mapping(cls, options: Mapping[str, Any]) -> AEPOptions:
@@ -231,6 +236,8 @@ class Propagation:
             raise RuntimeError("edit propagation did not terminate")
         if self.options.repair:
             self.repair(state)
+        if self.options.joint:
+            self.joint_repair(state)
         program = self.program(state.ops)
         clock = time.perf_counter()
         # The final word is a check at random samples of the whole range (paper eq. 1).
@@ -297,6 +304,92 @@ class Propagation:
                     state.stats["repairs"] = state.stats.get("repairs", 0) + 1
             if not improved:
                 return
+
+    def joint_repair(self, state: _State) -> None:
+        """Re-solve the parts around the relations still broken together (cluster.py).
+
+        The cluster starts with the editable members of the broken relations and grows by
+        a ring of neighbours at a time; the first cluster whose joint edit keeps every
+        relation is taken, else the one with the least total error, and only when it beats
+        the edits found part by part.
+        """
+        damage = self.damage(state.ops)
+        if damage[1] == 0:
+            return
+        fixed = state.seeded | {p for p, hint in self.hints.items() if hint == "keep"}
+        corners = self.corners(state.ops)
+        sliding = sliding_members(self.shape, self.program(state.ops))
+
+        def editable(m: str) -> bool:
+            return m in self.shape.parts and m not in fixed and m not in sliding and not self.shape.groups_of(m)
+
+        cluster = {m for r in self.relations if not self.holds(r, corners, sliding) for m in r.members
+                   if editable(m)}
+        best = (damage, None)
+        for ring in range(self.options.joint):
+            if ring:
+                grown = cluster | {n for m in cluster for n in self.shape.neighbours(m) if editable(n)}
+                if grown == cluster:
+                    break
+                cluster = grown
+            if not cluster:
+                break
+            # Parts turned with a rotated neighbour cannot be redone by scalings and
+            # translations: the cluster is also tried with their edits kept.
+            turned = {p for p in cluster if any(op.operand == p and op.name not in BOX_OPS for op in state.ops)}
+            for parts in [cluster] + ([cluster - turned] if turned and cluster - turned else []):
+                frames = ["local"] + (["world"] if not all(cluster_module.aligned(self.shape.part(p).hexahedron)
+                                                           for p in parts) else [])
+                for frame in frames:
+                    ops = self.cluster_edit(state, sorted(parts), frame)
+                    if ops is None:
+                        continue
+                    trial = self.damage(ops)
+                    if trial[0] < best[0][0] - self.tolerance:
+                        best = (trial, ops)
+            if best[0][1] == 0:
+                break
+        if best[1] is not None:
+            state.ops = best[1]
+            state.stats["joint_repairs"] = state.stats.get("joint_repairs", 0) + 1
+
+    def cluster_edit(self, state: _State, parts: list[str], frame: str = "local") -> list[EditOp] | None:
+        """The program with ``parts``' edits replaced by their joint least-squares edit."""
+        clock = time.perf_counter()
+        members = set(parts)
+        others_ops = [op for op in state.ops if op.operand not in members]
+        corners = self.corners(others_ops)
+        sliding = sliding_members(self.shape, self.program(others_ops))
+        constraints = [r for r in self.relations if set(r.members) & members and not set(r.members) & sliding]
+        if not constraints:
+            return None
+        hexahedra = {p: self.shape.part(p).hexahedron for p in parts}
+        system = cluster_module.build_system(parts, hexahedra, self.rest, corners, constraints, self.tolerance,
+                                             frame)
+        f, matrix, kept = cluster_module.solve(system)
+        state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        clock = time.perf_counter()
+        kept_constraints = [constraints[i] for i in kept]
+        outside = sorted({m for r in kept_constraints for m in r.members if m not in members})
+        symbolic = symbolic_corners(self.program(others_ops), self.shape, self.backend, only=outside)
+        residual = symbolic_residual(kept_constraints, {**symbolic, **{p: self.rest[p] for p in parts}})
+        new_ops: list[EditOp] = []
+        for _part, op, weights in cluster_module.part_terms(system, f, self.shape.size):
+            expected = f @ weights
+            if np.abs(expected).max() < 1e-7 * (self.shape.size if op.name == "translate" else 1.0):
+                continue
+            expr = self.backend.expand(linear_combination(self.backend, -(weights @ matrix), residual))
+            try:
+                text = amount_text(self.backend, expr)
+                values = evaluate_amount(text, self.parameter.name, self.xs)
+            except (ParselError, ValueError):
+                return None
+            if not np.allclose(values, expected, atol=1e-6 * max(1.0, float(np.abs(expected).max()))):
+                return None
+            if text != "0":
+                new_ops.append(dataclasses.replace(op, amount=text))
+        state.stats["time_s"]["derive"] += time.perf_counter() - clock
+        return others_ops + new_ops
 
     def late_reason(self, state: _State, relation: Relation, sliding: set[str]) -> str:
         """Why a relation between decided parts is broken: which decision broke it."""

@@ -1,0 +1,201 @@
+"""Neighbouring parts re-solved together: the joint pass after the part-by-part loop.
+
+The loop of the paper decides one part at a time against the parts decided before it.
+On real shapes two undecided neighbours often constrain each other: a short apron
+between a stretched long apron and the top, the rails between a copied scaling and a
+rigid side. Whichever is decided first may leave the other no edit that keeps both,
+and a breaking-edit follows. Here the parts around the relations still broken are
+given a box edit each (scalings along their own axes about their centres, then a
+translation) and all amounts are solved in one linear least-squares system.
+
+Every relation residual is linear in the corners and every basis op is linear in its
+amount on the rest corners, so with ``S`` the (B, K) residual slopes of the B basis
+amounts the system is ``r0(x) + f(x) S = 0``: the minimum-displacement solution
+``f(x) = -pinv(S^T) r0(x)`` is a fixed linear map of the residuals, and ``r0`` is an
+expression of the parameter, so every amount has a closed form (the same as a
+:mod:`compound` candidate, across parts). Basis amounts are weighted by how far they
+move the part's corners, so among the edits that keep everything the one that moves
+the shape least is taken. Relations the system cannot keep are dropped one at a time,
+largest error first (a breaking-edit over the cluster), and the result replaces the
+cluster's edits only when the whole shape's error goes down.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from parsel_aep.candidates import _vec
+from parsel_aep.compound import AXES, Compound, simplify
+from parsel_core.ops import Scale1D, Scale3D, Translate
+from parsel_core.relations import Relation
+
+#: A basis amount moving a part less than this fraction of the shape's size is left out.
+_NEGLIGIBLE = 1e-9
+
+
+@dataclass
+class ClusterSystem:
+    """The joint linear system of a cluster of parts, at every sample."""
+
+    parts: tuple[str, ...]
+    compounds: tuple[Compound, ...]
+    blocks: tuple[slice, ...]       # each part's columns in the basis
+    constraints: tuple[Relation, ...]
+    slices: tuple[slice, ...]       # each constraint's residual columns
+    r0: np.ndarray                  # (S, K) residuals with the cluster at rest
+    slopes: np.ndarray              # (B, K) residual change per unit basis amount
+    weights: np.ndarray             # (B,) corner displacement per unit basis amount
+    allowances: np.ndarray          # (R,) each constraint's allowed drift
+
+
+def box_compound(part: str, hexahedron, frame: str = "local") -> Compound:
+    """Scalings about the part's centre along three orthogonal axes, then translations.
+
+    ``frame`` ``local`` scales along the part's own axes (a box stays a box), ``world``
+    along the global axes (a tilted brace between two parts stretched along z follows
+    them as a parallelepiped). A skewed part is scaled uniformly instead.
+    """
+    c = _vec(hexahedron.center)
+    moves = tuple(Translate(part, "f", dir=axis) for axis in AXES)
+    axes = np.eye(3) if frame == "world" else np.asarray(hexahedron.local_axes, dtype=float)
+    if frame != "world" and not all(abs(float(axes[i] @ axes[j])) < 1e-6 for i in range(3) for j in range(i + 1, 3)):
+        return Compound(part, (Scale3D(part, "f", origin=c), *moves), "free_scale_3d")
+    return Compound(part, (*(Scale1D(part, "f", origin=c, dir=_vec(a)) for a in axes), *moves), "free_box")
+
+
+def aligned(hexahedron) -> bool:
+    """Whether the part's own axes are the global axes (up to order and sign)."""
+    return bool(np.allclose(np.abs(np.asarray(hexahedron.local_axes)).max(axis=1), 1.0, atol=1e-6))
+
+
+def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Mapping[str, np.ndarray],
+                 corners: Mapping[str, np.ndarray], constraints: Sequence[Relation],
+                 tolerance: float, frame: str = "local") -> ClusterSystem:
+    """Residual slopes of every part's box basis against ``constraints``.
+
+    ``corners``: (S, 8, 3) corners of every part at the samples with the cluster's parts
+    at rest; ``rest``: (8, 3) rest corners.
+    """
+    def residuals(view) -> np.ndarray:
+        blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
+        lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
+        return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
+
+    involved = {m for r in constraints for m in r.members}
+    r0 = np.nan_to_num(residuals({m: corners[m] for m in involved}), nan=0.0, posinf=0.0, neginf=0.0)
+    still = {m: rest[m][None] for m in involved}
+    base = residuals(still)[0]
+    slices, start = [], 0
+    for r in constraints:
+        size = np.asarray(r.residual({m: rest[m] for m in r.members})).shape[-1]
+        slices.append(slice(start, start + size))
+        start += size
+    compounds, blocks, slopes, weights = [], [], [], []
+    column = 0
+    for part in parts:
+        compound = box_compound(part, hexahedra[part], frame)
+        moved = np.stack([op.apply(rest[part], 1.0, np) for op in compound.basis])   # (Kp, 8, 3)
+        slopes.append(residuals({**still, part: moved}) - base)
+        weights.append(np.sqrt(((moved - rest[part]) ** 2).sum(axis=(-1, -2)) / 8.0))
+        compounds.append(compound)
+        blocks.append(slice(column, column + compound.size))
+        column += compound.size
+    return ClusterSystem(tuple(parts), tuple(compounds), tuple(blocks), tuple(constraints), tuple(slices), r0,
+                         np.concatenate(slopes), np.concatenate(weights),
+                         np.array([r.allowance(tolerance) for r in constraints]))
+
+
+def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+    """``D^-1 pinv(W S^T D^-1) W`` (B, K'): the least-displacement amounts from residual columns.
+
+    ``D`` weighs each basis amount by how far it moves its part; ``rows`` (K',) weighs the
+    residual columns (the same solution when the system can be met exactly).
+    """
+    scale = np.where(system.weights > _NEGLIGIBLE, system.weights, np.inf)
+    a = system.slopes[:, columns].T / scale                                           # (K', B)
+    if rows is not None:
+        a = a * rows[:, None]
+    norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+    out = np.linalg.pinv(a / norm, rcond=1e-9) / norm / scale[:, None]
+    return out * rows[None, :] if rows is not None else out
+
+
+def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
+    """Largest |residual| over the samples, per constraint, for amounts ``f`` (S, B)."""
+    residual = np.abs(system.r0 + f @ system.slopes)
+    return np.array([residual[:, s].max(initial=0.0) for s in system.slices])
+
+
+def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
+    if not kept:
+        return np.zeros(0, dtype=int)
+    return np.concatenate([np.arange(system.slices[i].start, system.slices[i].stop) for i in kept])
+
+
+def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
+    """The constraints to keep, chosen by iteratively reweighted least squares.
+
+    Minimising the sum of the relations' errors (not their squares) breaks few relations
+    by a lot rather than many by a little: each pass weighs a relation's rows by
+    ``1 / sqrt(its error over its allowance)``.
+    """
+    everything = list(range(len(system.constraints)))
+    columns = _columns(system, everything)
+    sizes = np.array([s.stop - s.start for s in system.slices])
+    relative = np.ones(len(everything))
+    for _ in range(iterations):
+        weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
+        rows = np.repeat(weight / np.sqrt(sizes), sizes)
+        f = -(solver(system, columns, rows) @ system.r0[:, columns].T).T
+        relative = relation_errors(system, f) / system.allowances
+    return [i for i in everything if relative[i] < 1.0]
+
+
+def _drop_until_kept(system: ClusterSystem, kept: list[int]) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Solve on ``kept``; while a kept constraint fails, drop the worst (error over allowance)."""
+    kept = list(kept)
+    while True:
+        columns = _columns(system, kept)
+        matrix = solver(system, columns) if kept else np.zeros((len(system.weights), 0))
+        f = -(matrix @ system.r0[:, columns].T).T
+        errors = relation_errors(system, f)
+        over = [(errors[i] / system.allowances[i], i) for i in kept if not errors[i] < system.allowances[i]]
+        if not over:
+            return f, matrix, kept
+        kept.remove(max(over)[1])
+
+
+def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Amounts (S, B), the solver used (B, K') and the constraints kept in the system.
+
+    Two ways to choose what to give up when not everything can be kept: from all the
+    constraints, drop the worst one at a time; or start from the ones an L1 fit keeps
+    (:func:`_sparse_breaks`). The one keeping more constraints (then less total error)
+    wins; the dropped constraints are the cluster's breaking-edits.
+    """
+    everything = list(range(len(system.constraints)))
+    best = None
+    for start in (everything, _sparse_breaks(system)):
+        f, matrix, kept = _drop_until_kept(system, start)
+        errors = relation_errors(system, f) / system.allowances
+        score = (-len(kept), float(np.sum(errors[errors >= 1.0])))
+        if best is None or score < best[0]:
+            best = (score, f, matrix, kept)
+        if len(kept) == len(everything):
+            break
+    return best[1], best[2], best[3]
+
+
+def part_terms(system: ClusterSystem, f: np.ndarray, size: float):
+    """Per part, its simplified ops with their weights over the whole basis (compound.simplify)."""
+    out = []
+    total = len(system.weights)
+    for part, compound, block in zip(system.parts, system.compounds, system.blocks):
+        for term in simplify(compound, f[:, block], size):
+            weights = np.zeros(total)
+            weights[block] = term.weights
+            out.append((part, term.op, weights))
+    return out

@@ -29,11 +29,14 @@ import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import AXES, Compound, simplify
-from parsel_core.ops import Scale1D, Scale3D, Translate
+from parsel_core.ops import Scale1D, Scale3D, Shear, Translate
 from parsel_core.relations import Relation
 
 #: A basis amount moving a part less than this fraction of the shape's size is left out.
 _NEGLIGIBLE = 1e-9
+#: The simplest edit that keeps the relations is preferred (the paper's simplicity order):
+#: a unit of displacement by a scaling costs twice a translation's, by a shear four times.
+COSTS = {"translate": 1.0, "scale_1d": 2.0, "scale_3d": 2.0, "shear": 4.0}
 
 
 @dataclass
@@ -48,22 +51,32 @@ class ClusterSystem:
     r0: np.ndarray                  # (S, K) residuals with the cluster at rest
     slopes: np.ndarray              # (B, K) residual change per unit basis amount
     weights: np.ndarray             # (B,) corner displacement per unit basis amount
+    costs: np.ndarray               # (B,) preference: translations, then scalings, then shears
     allowances: np.ndarray          # (R,) each constraint's allowed drift
 
 
-def box_compound(part: str, hexahedron, frame: str = "local") -> Compound:
+def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = False) -> Compound:
     """Scalings about the part's centre along three orthogonal axes, then translations.
 
     ``frame`` ``local`` scales along the part's own axes (a box stays a box), ``world``
     along the global axes (a tilted brace between two parts stretched along z follows
-    them as a parallelepiped). A skewed part is scaled uniformly instead.
+    them as a parallelepiped). A skewed part is scaled uniformly instead. ``shears`` adds
+    the six shears between those axes, applied after the scalings: a stretcher between two
+    legs that grow by slightly different amounts must tilt with them. (A shear reading an
+    axis that a scaling also changed adds a product of amounts, which the final check
+    measures; the scalings and shears of one part are rarely both needed.)
     """
     c = _vec(hexahedron.center)
     moves = tuple(Translate(part, "f", dir=axis) for axis in AXES)
     axes = np.eye(3) if frame == "world" else np.asarray(hexahedron.local_axes, dtype=float)
     if frame != "world" and not all(abs(float(axes[i] @ axes[j])) < 1e-6 for i in range(3) for j in range(i + 1, 3)):
-        return Compound(part, (Scale3D(part, "f", origin=c), *moves), "free_scale_3d")
-    return Compound(part, (*(Scale1D(part, "f", origin=c, dir=_vec(a)) for a in axes), *moves), "free_box")
+        scales: tuple = (Scale3D(part, "f", origin=c),)
+        axes = np.eye(3)
+    else:
+        scales = tuple(Scale1D(part, "f", origin=c, dir=_vec(a)) for a in axes)
+    tilts = tuple(Shear(part, "f", origin=c, normal=_vec(axes[i]), dir=_vec(axes[j]))
+                  for i in range(3) for j in range(3) if i != j) if shears else ()
+    return Compound(part, (*scales, *tilts, *moves), "free_box")
 
 
 def aligned(hexahedron) -> bool:
@@ -73,11 +86,13 @@ def aligned(hexahedron) -> bool:
 
 def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Mapping[str, np.ndarray],
                  corners: Mapping[str, np.ndarray], constraints: Sequence[Relation],
-                 tolerance: float, frame: str = "local") -> ClusterSystem:
+                 tolerance: float, frame: str = "local", shears: bool = False,
+                 translate_only: frozenset[str] = frozenset()) -> ClusterSystem:
     """Residual slopes of every part's box basis against ``constraints``.
 
     ``corners``: (S, 8, 3) corners of every part at the samples with the cluster's parts
-    at rest; ``rest``: (8, 3) rest corners.
+    at rest; ``rest``: (8, 3) rest corners; ``translate_only``: parts hinted to translate
+    (their other basis amounts are left out).
     """
     def residuals(view) -> np.ndarray:
         blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
@@ -93,33 +108,46 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
         size = np.asarray(r.residual({m: rest[m] for m in r.members})).shape[-1]
         slices.append(slice(start, start + size))
         start += size
-    compounds, blocks, slopes, weights = [], [], [], []
+    compounds, blocks, slopes, weights, costs = [], [], [], [], []
     column = 0
     for part in parts:
-        compound = box_compound(part, hexahedra[part], frame)
+        compound = box_compound(part, hexahedra[part], frame, shears)
         moved = np.stack([op.apply(rest[part], 1.0, np) for op in compound.basis])   # (Kp, 8, 3)
         slopes.append(residuals({**still, part: moved}) - base)
-        weights.append(np.sqrt(((moved - rest[part]) ** 2).sum(axis=(-1, -2)) / 8.0))
+        moves = np.sqrt(((moved - rest[part]) ** 2).sum(axis=(-1, -2)) / 8.0)
+        if part in translate_only:  # a part hinted to translate keeps its shape
+            moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)
+        weights.append(moves)
+        costs.append([COSTS[op.name] for op in compound.basis])
         compounds.append(compound)
         blocks.append(slice(column, column + compound.size))
         column += compound.size
     return ClusterSystem(tuple(parts), tuple(compounds), tuple(blocks), tuple(constraints), tuple(slices), r0,
-                         np.concatenate(slopes), np.concatenate(weights),
+                         np.concatenate(slopes), np.concatenate(weights), np.concatenate(costs),
                          np.array([r.allowance(tolerance) for r in constraints]))
 
 
-def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
-    """``D^-1 pinv(W S^T D^-1) W`` (B, K'): the least-displacement amounts from residual columns.
+def _prior(system: ClusterSystem) -> np.ndarray:
+    """``1 / (displacement x cost)`` per basis amount: what the least-squares solution weighs."""
+    c = system.weights * system.costs
+    return np.where(system.weights > _NEGLIGIBLE, 1.0 / np.where(c > 0, c, 1.0), 0.0)
 
-    ``D`` weighs each basis amount by how far it moves its part; ``rows`` (K',) weighs the
-    residual columns (the same solution when the system can be met exactly).
+
+def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None = None,
+           prior: np.ndarray | None = None) -> np.ndarray:
+    """``P pinv(W S^T P) W`` (B, K'): the amounts from the residual columns that minimise
+    ``sum (f_j / p_j)^2`` among those meeting the columns (least squares otherwise).
+
+    ``prior`` ``P`` (B,) defaults to :func:`_prior` (the least costed displacement); a zero
+    leaves that amount out. ``rows`` (K',) weighs the residual columns (the same solution
+    when the system can be met exactly).
     """
-    scale = np.where(system.weights > _NEGLIGIBLE, system.weights, np.inf)
-    a = system.slopes[:, columns].T / scale                                           # (K', B)
+    p = _prior(system) if prior is None else prior
+    a = system.slopes[:, columns].T * p                                               # (K', B)
     if rows is not None:
         a = a * rows[:, None]
     norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
-    out = np.linalg.pinv(a / norm, rcond=1e-9) / norm / scale[:, None]
+    out = np.linalg.pinv(a / norm, rcond=1e-9) / norm * p[:, None]
     return out * rows[None, :] if rows is not None else out
 
 
@@ -168,13 +196,43 @@ def _drop_until_kept(system: ClusterSystem, kept: list[int]) -> tuple[np.ndarray
         kept.remove(max(over)[1])
 
 
+def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray,
+             iterations: int = 12) -> tuple[np.ndarray, np.ndarray] | None:
+    """The same constraints met by as few basis amounts as possible, or ``None``.
+
+    The least-squares solution spreads a little of every basis op over the cluster (a
+    stretcher's tilt shared by the legs as 1e-5 shears). Reweighted least squares
+    (FOCUSS, with the prior ``sqrt(|g|) / c`` for costed displacements ``g``) drives the
+    unneeded amounts to zero; those are left out and the rest solved again exactly.
+    """
+    columns = _columns(system, kept)
+    base = _prior(system)
+    c = np.where(base > 0, 1.0 / np.where(base > 0, base, 1.0), 0.0)
+    g = np.abs(f * c).max(axis=0)
+    if not g.max() > 0:
+        return None
+    for _ in range(iterations):
+        matrix = solver(system, columns, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
+        g = np.abs(-(matrix @ system.r0[:, columns].T).T * c).max(axis=0)
+        if not g.max() > 0:
+            return None
+    prior = np.where(g > 1e-6 * g.max(), base, 0.0)
+    matrix = solver(system, columns, prior=prior)
+    f = -(matrix @ system.r0[:, columns].T).T
+    errors = relation_errors(system, f)
+    if any(not errors[i] < system.allowances[i] for i in kept):
+        return None
+    return f, matrix
+
+
 def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Amounts (S, B), the solver used (B, K') and the constraints kept in the system.
 
     Two ways to choose what to give up when not everything can be kept: from all the
     constraints, drop the worst one at a time; or start from the ones an L1 fit keeps
     (:func:`_sparse_breaks`). The one keeping more constraints (then less total error)
-    wins; the dropped constraints are the cluster's breaking-edits.
+    wins; the dropped constraints are the cluster's breaking-edits. The amounts are then
+    made sparse (:func:`sparsify`).
     """
     everything = list(range(len(system.constraints)))
     best = None
@@ -186,7 +244,11 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
             best = (score, f, matrix, kept)
         if len(kept) == len(everything):
             break
-    return best[1], best[2], best[3]
+    _, f, matrix, kept = best
+    sparse = sparsify(system, kept, f)
+    if sparse is not None:
+        f, matrix = sparse
+    return f, matrix, kept
 
 
 def part_terms(system: ClusterSystem, f: np.ndarray, size: float):

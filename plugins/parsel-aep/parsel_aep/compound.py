@@ -26,7 +26,7 @@ import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_core.hexahedron import Hexahedron
-from parsel_core.ops import EditOp, Scale1D, Scale2D, Scale3D, Translate
+from parsel_core.ops import EditOp, Scale1D, Scale2D, Scale3D, Shear, Translate
 
 AXES = tuple(tuple(float(v) for v in row) for row in np.eye(3))
 
@@ -128,6 +128,9 @@ def simplify(compound: Compound, f: np.ndarray, scale: float) -> list[Term]:
         g = f[:, i]
         if np.abs(g).max() < 1e-9:
             continue
+        if isinstance(op, Shear):  # a shear keeps its origin; what it moves there is left to t
+            terms.append(Term(op, tuple(weights[i])))
+            continue
         if isinstance(op, Scale1D):
             normals = [np.asarray(op.dir)]
         elif isinstance(op, Scale2D):
@@ -145,7 +148,9 @@ def simplify(compound: Compound, f: np.ndarray, scale: float) -> list[Term]:
                 ok = False
                 break
             shift += ratio * n
-        if ok and np.abs(shift).max() > 0:
+        # An origin far outside the shape reads better as a scaling about the centre and a
+        # translation (a seat raised by 0.27 and squashed by 0.0004 is not a scaling about y = 695).
+        if ok and np.abs(shift).max() > 0 and np.linalg.norm(shift) <= 2 * max(scale, 1e-12):
             # t . n = g * (c - o) . n: the translation along n is absorbed into the origin
             origin = _vec(centre - shift)
             op = _with_origin(op, origin)

@@ -236,7 +236,7 @@ class Propagation:
             raise RuntimeError("edit propagation did not terminate")
         if self.options.repair:
             self.repair(state)
-        if self.options.joint:
+        if self.options.joint and self.options.nhbd:  # the joint pass extends the nhbd-edits
             self.joint_repair(state)
         program = self.program(state.ops)
         clock = time.perf_counter()
@@ -321,7 +321,8 @@ class Propagation:
         sliding = sliding_members(self.shape, self.program(state.ops))
 
         def editable(m: str) -> bool:
-            return m in self.shape.parts and m not in fixed and m not in sliding and not self.shape.groups_of(m)
+            return (m in self.shape.parts and m not in fixed and m not in sliding and not self.shape.groups_of(m)
+                    and self.hints.get(m) in (None, "translate", "scale"))
 
         cluster = {m for r in self.relations if not self.holds(r, corners, sliding) for m in r.members
                    if editable(m)}
@@ -337,23 +338,27 @@ class Propagation:
             # Parts turned with a rotated neighbour cannot be redone by scalings and
             # translations: the cluster is also tried with their edits kept.
             turned = {p for p in cluster if any(op.operand == p and op.name not in BOX_OPS for op in state.ops)}
-            for parts in [cluster] + ([cluster - turned] if turned and cluster - turned else []):
-                frames = ["local"] + (["world"] if not all(cluster_module.aligned(self.shape.part(p).hexahedron)
-                                                           for p in parts) else [])
-                for frame in frames:
-                    ops = self.cluster_edit(state, sorted(parts), frame)
-                    if ops is None:
-                        continue
-                    trial = self.damage(ops)
-                    if trial[0] < best[0][0] - self.tolerance:
-                        best = (trial, ops)
+            for shears in (False, True):
+                for parts in [cluster] + ([cluster - turned] if turned and cluster - turned else []):
+                    frames = ["local"] + (["world"] if not all(
+                        cluster_module.aligned(self.shape.part(p).hexahedron) for p in parts) else [])
+                    for frame in frames:
+                        ops = self.cluster_edit(state, sorted(parts), frame, shears)
+                        if ops is None:
+                            continue
+                        trial = self.damage(ops)
+                        if trial[0] < best[0][0] - self.tolerance:
+                            best = (trial, ops)
+                if best[0][1] == 0:
+                    break
             if best[0][1] == 0:
                 break
         if best[1] is not None:
             state.ops = best[1]
             state.stats["joint_repairs"] = state.stats.get("joint_repairs", 0) + 1
 
-    def cluster_edit(self, state: _State, parts: list[str], frame: str = "local") -> list[EditOp] | None:
+    def cluster_edit(self, state: _State, parts: list[str], frame: str = "local",
+                     shears: bool = False) -> list[EditOp] | None:
         """The program with ``parts``' edits replaced by their joint least-squares edit."""
         clock = time.perf_counter()
         members = set(parts)
@@ -365,8 +370,11 @@ class Propagation:
             return None
         hexahedra = {p: self.shape.part(p).hexahedron for p in parts}
         system = cluster_module.build_system(parts, hexahedra, self.rest, corners, constraints, self.tolerance,
-                                             frame)
+                                             frame, shears,
+                                             frozenset(p for p in parts if self.hints.get(p) == "translate"))
         f, matrix, kept = cluster_module.solve(system)
+        if len(kept) < len(constraints) and not self.options.breaking:
+            return None  # giving up relations is a breaking-edit
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         clock = time.perf_counter()
         kept_constraints = [constraints[i] for i in kept]
@@ -389,7 +397,13 @@ class Propagation:
             if text != "0":
                 new_ops.append(dataclasses.replace(op, amount=text))
         state.stats["time_s"]["derive"] += time.perf_counter() - clock
-        return others_ops + new_ops
+        ops = others_ops + new_ops
+        # As in ranking (selection.py): no part may be distorted beyond the threshold at the
+        # end of the range (a leg widened 18-fold to reach a rail that was kept fixed).
+        edited = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs[-1:]}).parts
+        if any(arap_energies(self.rest[p], edited[p][-1:])[0] > HIGH_DISTORTION for p in parts):
+            return None
+        return ops
 
     def late_reason(self, state: _State, relation: Relation, sliding: set[str]) -> str:
         """Why a relation between decided parts is broken: which decision broke it."""

@@ -232,7 +232,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
         solve = SolveRequest(graph, seed_program, hints, tuple(breaks), options)
     started = time.perf_counter()
     online = stats.get("online") if isinstance(stats.get("online"), dict) else None
-    if online is not None and "errors" in online:  # a solver that re-solves per value checked itself
+    if online is not None and "errors" in online and base is None:  # a solver that re-solves per value checked itself
         report = report_from_errors(graph, online["errors"], solve.breaks, online["samples"])
     else:
         report = check_program(graph, program, solve.breaks)

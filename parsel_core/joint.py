@@ -106,7 +106,7 @@ def _rest_value(parameter: Parameter) -> float:
 def narrowed(parameter: Parameter, factor: float) -> Parameter:
     """The range scaled by ``factor`` about the parameter's rest value (0, or the end nearest it)."""
     rest = _rest_value(parameter)
-    lo = math.floor((rest + factor * (parameter.lo - rest)) * 1000) / 1000 if parameter.lo < rest else parameter.lo
+    lo = math.ceil((rest + factor * (parameter.lo - rest)) * 1000) / 1000 if parameter.lo < rest else parameter.lo
     hi = math.floor((rest + factor * (parameter.hi - rest)) * 1000) / 1000 if parameter.hi > rest else parameter.hi
     lo, hi = min(lo, rest), max(hi, rest)
     return Parameter(parameter.name, lo, hi, min(max(parameter.default, lo), hi))

@@ -149,9 +149,14 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
          api_base: str | None = None, replay: str | Path | None = None, cache_dir: str | Path | None = None,
          timeout: float | None = None, retries: int | None = None, with_image: bool = False,
          provider_options: Mapping[str, Any] | None = None,
-         solver_options: Mapping[str, Any] | None = None) -> EditResult:
+         solver_options: Mapping[str, Any] | None = None, on: ProgramLike | None = None) -> EditResult:
     """A request in words (through the language layer) or a seed edit (expert mode) -> a
     complete program with its relation report (``parsel edit``).
+
+    ``on`` (a program or a program file, ``parsel edit --on``) grows an existing program:
+    the request is solved on the rest shape and added as a new layer with its own
+    parameter (:func:`parsel_core.joint.add_layer`), and the report checks the joint box
+    of all the parameters.
 
     ``seed`` is op text (``"scale_1d(seat, ..., amount=x)"``) or a :class:`Program`;
     ``hints`` and ``breaks`` add to (and override) what the language layer infers.
@@ -177,6 +182,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
     started = time.perf_counter()
     graph = as_shape(shape)
     timings["load_s"] = time.perf_counter() - started
+    base = None if on is None else base_program(on, graph)
     hints = dict(hints or {})
     breaks = list(breaks)
     metadata: dict[str, Any] = {"solver": chosen.name, "shape": graph.name}
@@ -220,10 +226,13 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
         result = chosen.run(solve)
         program, rejected, stats = result.program, list(result.rejected), dict(result.stats)
     timings["solve_s"] = time.perf_counter() - started
-    program = type(program)(program.ops, program.parameters, metadata)
+    program = type(program)(program.ops, program.parameters, metadata, program.layers)
+    if base is not None:
+        program, breaks = _on_base(graph, base, program, metadata, breaks)
+        solve = SolveRequest(graph, seed_program, hints, tuple(breaks), options)
     started = time.perf_counter()
     online = stats.get("online") if isinstance(stats.get("online"), dict) else None
-    if online is not None and "errors" in online:  # a solver that re-solves per value checked itself
+    if online is not None and "errors" in online and base is None:  # a solver that re-solves per value checked itself
         report = report_from_errors(graph, online["errors"], solve.breaks, online["samples"])
     else:
         report = check_program(graph, program, solve.breaks)
@@ -234,6 +243,45 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
         report.extra["language"] = inference.summary()
     return EditResult(graph, program, report, list(inference.record) if inference else [],
                       dict(inference.accounting) if inference else {}, timings, rejected, inference)
+
+
+def base_program(on: ProgramLike, graph: ShapeGraph) -> Program:
+    """The program ``edit(on=...)`` grows: read (a file or an OUTDIR of parsel edit) and checked
+    against the shape, every error one line naming the file."""
+    from parsel_core.program import Program
+
+    if isinstance(on, Program):
+        where, program = "--on program", on
+    else:
+        path = Path(on)
+        if path.is_dir():
+            path = path / "program.json"
+        if not path.is_file():
+            raise ParselError(f"{path}: no such program file (--on takes the program.json of an earlier parsel edit "
+                              f"or proxydural)")
+        where, program = str(path), as_program(path)
+    named = program.metadata.get("shape")
+    if isinstance(named, str) and named and named != graph.name:
+        raise ParselError(f"{where}: is a program for shape {named!r}, not {graph.name!r}")
+    try:
+        program.validate(graph)
+    except ParselError as exc:
+        raise ParselError(f"{where}: does not match shape {graph.name!r}: {exc}") from None
+    return program
+
+
+def _on_base(graph: ShapeGraph, base: Program, program: Program, metadata: Mapping[str, Any],
+             breaks: Sequence[str]) -> tuple[Program, list[str]]:
+    """``program`` (one request, solved on the rest shape) added to ``base`` as a new layer; the
+    metadata lists every layer's request and the relations any of them may break."""
+    from parsel_core.joint import add_layer
+
+    text = metadata.get("request") or metadata.get("seed") or ""
+    combined, name = add_layer(graph, base, program, str(text))
+    all_breaks = sorted(set(base.metadata.get("breaks") or ()) | set(breaks))
+    meta = {**{k: v for k, v in metadata.items() if k not in ("request", "seed", "hints", "breaks")},
+            "application": "stacked", "requests": combined.metadata["requests"], "breaks": all_breaks}
+    return type(combined)(combined.ops, combined.parameters, meta, combined.layers), all_breaks
 
 
 def check(shape: ShapeLike, program: ProgramLike, breaks: Iterable[str] = (), samples: int = 50) -> RelationReport:
@@ -325,6 +373,27 @@ def _check_count(count: int) -> None:
         raise ParselError(f"the number of requests must be an integer from 1 to {MAX_REQUESTS}, got {count!r}")
 
 
+def _solve_each(graph: ShapeGraph, texts: Sequence[str], records: list[dict[str, Any]], name: str, what: str,
+                progress: bool, **options: Any) -> Iterator[tuple[str, Program | None, list[str], str | None]]:
+    """Each request solved on the rest shape, in order: (text, program, breaks, None), or
+    (text, None, [], why) when the language layer gave no usable seed. Shared by
+    ``proxydural`` and ``variations``, which differ only in what they do with the programs."""
+    from parsel_core.language import InferenceError
+
+    bar = _progress(len(texts), what, progress)
+    try:
+        for text in texts:
+            bar.update(1)
+            try:
+                program, _, request_breaks = solve_request(graph, text, records, provider=name, **options)
+            except InferenceError as exc:
+                yield text, None, [], str(exc)
+                continue
+            yield text, program, request_breaks, None
+    finally:
+        bar.close()
+
+
 @dataclass
 class ProxyduralResult:
     """A proxydural model: one stacked program with a slider per request (``used``),
@@ -347,38 +416,44 @@ class ProxyduralResult:
 def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", model: str | None = None,
                samples: int = 5, backend: str | None = None, api_base: str | None = None,
                cache_dir: str | Path | None = None, provider_options: Mapping[str, Any] | None = None,
-               progress: bool = False) -> ProxyduralResult:
+               progress: bool = False, check_samples: int = 200) -> ProxyduralResult:
     """Proxydural modelling (paper 8.1): ``count`` requests proposed for the shape, one
-    program each, stacked with one slider each (``parsel proxydural``)."""
-    from parsel_core.language import InferenceError, proxydural_requests
+    program each, added as layers with one slider each (``parsel proxydural``).
+
+    Each request is solved on the rest shape and its displacements add to the others'
+    (:func:`parsel_core.joint.add_layer`), so every combination of the sliders keeps each
+    relation every slider keeps alone. The report checks the joint box (its corners and
+    ``check_samples`` random points) first, then each slider alone (``per_slider``)."""
+    from parsel_core.joint import add_layer
+    from parsel_core.language import proxydural_requests
     from parsel_core.report import check_each_parameter, check_program
 
     _check_count(count)
     graph = as_shape(shape)
+    options = {"model": model, "samples": samples, "backend": backend, "api_base": api_base,
+               "cache_dir": cache_dir, "provider_options": provider_options}
     with provider_name(provider) as name:
         proposal = proxydural_requests(graph, count=count, provider=name, model=model)
         records = list(proposal.record)
         composed, used, skipped, breaks = None, [], [], set()
-        bar = _progress(len(proposal.requests), "requests", progress)
-        for i, text in enumerate(proposal.requests, start=1):
-            bar.update(1)
+        for i, (text, program, request_breaks, reason) in enumerate(
+                _solve_each(graph, proposal.requests, records, name, "requests", progress, **options), start=1):
+            if program is None:
+                skipped.append({"request": text, "reason": str(reason)})
+                continue
             try:
-                program, _, request_breaks = solve_request(
-                    graph, text, records, provider=name, model=model, samples=samples, backend=backend,
-                    api_base=api_base, cache_dir=cache_dir, provider_options=provider_options)
-            except InferenceError as exc:
+                composed, parameter = add_layer(graph, composed, program, text, name=f"x{i}")
+            except ParselError as exc:  # its layout or its collapse does not combine with the others
                 skipped.append({"request": text, "reason": str(exc)})
                 continue
-            program = program.renamed(program.parameters[0].name, f"x{i}")
-            composed = program if composed is None else composed.then(program)
-            used.append({"request": text, "parameter": f"x{i}"})
+            used.append({"request": text, "parameter": parameter})
             breaks.update(request_breaks)
-        bar.close()
     if composed is None:
         raise ParselError(f"none of the {len(proposal.requests)} proposed requests could be turned into a program")
     composed = type(composed)(composed.ops, composed.parameters, {
-        "solver": "aep", "shape": graph.name, "application": "proxydural", "requests": used})
-    report = check_program(graph, composed, sorted(breaks))
+        "solver": "aep", "shape": graph.name, "application": "proxydural", "requests": used,
+        "breaks": sorted(breaks)}, composed.layers)
+    report = check_program(graph, composed, sorted(breaks), samples=check_samples)
     per_slider = check_each_parameter(graph, composed, sorted(breaks))
     report.extra.update({"shape": graph.name, "requests": used, "skipped": skipped, "per_slider": per_slider})
     return ProxyduralResult(graph, composed, report, per_slider, used, skipped, records)
@@ -427,31 +502,28 @@ def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any 
                cache_dir: str | Path | None = None, provider_options: Mapping[str, Any] | None = None,
                progress: bool = False) -> VariationsResult:
     """Shape variation families (paper 8.2): ``count`` variants of ``request``, one program
-    each (``parsel variations``)."""
-    from parsel_core.language import InferenceError, variation_requests
+    each (``parsel variations``); a variant with several parameters is checked on their
+    joint box, as every report is."""
+    from parsel_core.language import variation_requests
     from parsel_core.report import check_program
 
     _check_count(count)
     graph = as_shape(shape)
     variants: list[Variant] = []
+    options = {"model": model, "samples": samples, "backend": backend, "api_base": api_base,
+               "cache_dir": cache_dir, "provider_options": provider_options}
     with provider_name(provider) as name:
         proposal = variation_requests(graph, request, count=count, provider=name, model=model)
         records = list(proposal.record)
-        bar = _progress(len(proposal.requests), "variants", progress)
-        for text in proposal.requests:
-            bar.update(1)
-            try:
-                program, _, request_breaks = solve_request(
-                    graph, text, records, provider=name, model=model, samples=samples, backend=backend,
-                    api_base=api_base, cache_dir=cache_dir, provider_options=provider_options)
-            except InferenceError as exc:
-                variants.append(Variant(text, skipped=str(exc)))
+        for text, program, request_breaks, reason in _solve_each(graph, proposal.requests, records, name,
+                                                                 "variants", progress, **options):
+            if program is None:
+                variants.append(Variant(text, skipped=reason))
                 continue
             program = type(program)(program.ops, program.parameters, {
                 "solver": "aep", "shape": graph.name, "application": "variations", "request": text,
-                "family": request})
+                "family": request}, program.layers)
             variants.append(Variant(text, program, check_program(graph, program, request_breaks)))
-        bar.close()
     if not any(v.program is not None for v in variants):
         raise ParselError(f"none of the variants of {request!r} could be turned into a program")
     return VariationsResult(graph, request, variants, records)

@@ -289,7 +289,8 @@ def cmd_edit(args: argparse.Namespace) -> int:
         result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
                           breaks=list(args.break_ or ()), solver=args.solver, nhbd=not args.no_nhbd,
                           breaking=not args.no_breaking, replay=args.replay, timeout=args.timeout,
-                          retries=args.retries, with_image=args.with_image, **_language_options(args), **options)
+                          retries=args.retries, with_image=args.with_image, on=args.on, **_language_options(args),
+                          **options)
     except InferenceError as exc:
         # The record of what was asked and answered is the useful output of a failed inference;
         # a previous OUTDIR is never replaced by it.
@@ -304,7 +305,9 @@ def cmd_edit(args: argparse.Namespace) -> int:
                           "rejected": result.rejected, "accounting": result.accounting,
                           "timings": result.timings}, indent=1))
         return 0
-    print(f"{len(program.ops)} ops, x in [0, {program.parameters[0].hi:g}]; relations: {counts['kept']} kept, "
+    ranges = ", ".join(f"{p.name} in [{p.lo:g}, {p.hi:g}]" for p in program.parameters)
+    joint = f" at {report.samples} joint samples ({report.box_corners} box corners)" if report.box_corners else ""
+    print(f"{len(program.ops)} ops, {ranges}; relations{joint}: {counts['kept']} kept, "
           f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
     for state in report.relations:
         if state.state == "broken":
@@ -322,11 +325,14 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     counts = result.report.counts()
     if args.json:
         print(json.dumps({"output": args.output, "sliders": result.used, "skipped": result.skipped,
-                          "relations": counts, "per_slider": result.per_slider}, indent=1))
+                          "relations": counts, "joint_samples": result.report.samples,
+                          "box_corners": result.report.box_corners, "per_slider": result.per_slider}, indent=1))
         return 0
+    report = result.report
+    joint = f" at {report.samples} joint samples ({report.box_corners} box corners)" if report.box_corners else ""
     print(f"{len(result.used)} sliders ({', '.join(u['parameter'] + ': ' + u['request'] for u in result.used)}); "
-          f"relations: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, {counts['broken']} "
-          f"broken -> {args.output}")
+          f"relations{joint}: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, "
+          f"{counts['broken']} broken -> {args.output}")
     for name, c in result.per_slider.items():
         print(f"  {name} alone: {c['kept']} kept, {c['broken_on_purpose']} broken on purpose, {c['broken']} broken")
     for item in result.skipped:
@@ -366,10 +372,14 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report.to_dict(), indent=1))
         return status
+    corners = f", {report.box_corners} of them corners of the parameter box" if report.box_corners else ""
     print(f"{shape.name}: {counts['kept']} kept, {counts['broken_on_purpose']} broken on purpose, "
-          f"{counts['broken']} broken (tolerance {report.tolerance:.2e}, {report.samples} samples)")
+          f"{counts['broken']} broken (tolerance {report.tolerance:.2e}, {report.samples} samples{corners})")
     for state in report.relations:
-        print(f"  {state.state:<18} {state.id:<36} {state.kind:<12} max error {state.max_error:.2e}")
+        worst = ""
+        if state.worst_at is not None and state.state != "kept":
+            worst = " at " + ", ".join(f"{k}={v:.4g}" for k, v in state.worst_at.items())
+        print(f"  {state.state:<18} {state.id:<36} {state.kind:<12} max error {state.max_error:.2e}{worst}")
     return status
 
 
@@ -473,6 +483,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--tau", type=float, help="parameter range [0, tau] (default: chosen automatically)")
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
+    p.add_argument("--on", metavar="PROGRAM", help="grow this program (program.json of an earlier edit or "
+                   "proxydural, or its OUTDIR): the request becomes one more parameter, checked jointly")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
     _add_force(p)

@@ -1,7 +1,10 @@
 """Editing programs: ordered edit ops plus the control parameters their amounts use.
 
 A program is data. Evaluating it at parameter values gives every part's corners (and
-the instances of groups whose count or spacing it changes). Three evaluators share the
+the instances of groups whose count or spacing it changes). A *layered* program
+(:meth:`Program.plus`, ``layers``) is a sum of edits: each layer's ops run on the rest
+shape and the layers' corner displacements add, so edits solved one at a time on the
+rest shape compose without breaking any relation (docs/aep.md, "Several parameters"). Three evaluators share the
 ops' point maps: :func:`evaluate` (numpy, the reference), :func:`symbolic_corners` (CAS
 expressions, what edit propagation reasons about) and :class:`CompiledProgram` (the
 symbolic corners lambdified once, so a slider step is one vectorised call).
@@ -84,15 +87,31 @@ def _finite(value: int | float) -> bool:
 
 @dataclass(frozen=True)
 class Program:
-    """Ordered edit ops and the parameters their amounts use. Programs stack with ``then``."""
+    """Ordered edit ops and the parameters their amounts use.
+
+    Programs stack two ways: ``then`` (the second edits the output of the first) and
+    ``plus`` (layers: each edits the rest shape, their displacements add). ``layers``
+    holds the number of ops in each layer; ``()`` is one layer, a plain sequence.
+    """
 
     ops: tuple[EditOp, ...]
     parameters: tuple[Parameter, ...] = (Parameter("x"),)
     metadata: Mapping[str, Any] = field(default_factory=dict, compare=False)
+    layers: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "ops", tuple(self.ops))
         object.__setattr__(self, "parameters", tuple(self.parameters))
+        layers = self.layers
+        if isinstance(layers, (str, bytes)) or not isinstance(layers, Iterable):
+            raise ProgramFormatError(f"layers must be a list of op counts, got {layers!r}")
+        layers = tuple(layers)
+        if any(isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in layers):
+            raise ProgramFormatError(f"layers must be positive op counts, got {list(layers)!r}")
+        if layers and sum(layers) != len(self.ops):
+            raise ProgramFormatError(f"layers {list(layers)!r} count {sum(layers)} ops, the program has "
+                                     f"{len(self.ops)}")
+        object.__setattr__(self, "layers", layers if len(layers) > 1 else ())
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
@@ -149,15 +168,51 @@ class Program:
             out[p.name] = value
         return out
 
-    def then(self, other: Program) -> Program:
-        """Stack programs: ``other`` edits the output of this one. Shared parameters must agree."""
+    @property
+    def layer_slices(self) -> tuple[slice, ...]:
+        """The ops of each layer as slices of ``ops`` (one slice for a plain program)."""
+        sizes = self.layers or (len(self.ops),)
+        starts = np.cumsum((0,) + sizes[:-1])
+        return tuple(slice(int(start), int(start) + size) for start, size in zip(starts, sizes))
+
+    def layer_programs(self) -> tuple[Program, ...]:
+        """Each layer as a program of its own, with the parameters its amounts use."""
+        out = []
+        for part in self.layer_slices:
+            ops = self.ops[part]
+            used = set().union(*(op.parameters for op in ops))
+            out.append(Program(ops, tuple(p for p in self.parameters if p.name in used), dict(self.metadata)))
+        return tuple(out)
+
+    def _merged_parameters(self, other: Program) -> tuple[Parameter, ...]:
         params = {p.name: p for p in self.parameters}
         for p in other.parameters:
             if p.name in params and params[p.name] != p:
                 raise ProgramFormatError(f"cannot stack programs: parameter {p.name!r} differs "
                                          f"({params[p.name]} vs {p})")
             params.setdefault(p.name, p)
-        return Program(self.ops + other.ops, tuple(params.values()), {**self.metadata, **other.metadata})
+        return tuple(params.values())
+
+    def then(self, other: Program) -> Program:
+        """Stack programs: ``other`` edits the output of this one. Shared parameters must agree.
+
+        Sequential stacking moves parts with origins fixed for the rest shape, so it keeps
+        relations only when the second program does not depend on what the first moved;
+        programs solved separately on the rest shape compose with :meth:`plus`."""
+        if self.layers or other.layers:
+            raise ProgramFormatError("cannot stack a layered program with then (layers edit the rest shape); "
+                                     "add layers with plus")
+        return Program(self.ops + other.ops, self._merged_parameters(other), {**self.metadata, **other.metadata})
+
+    def plus(self, other: Program) -> Program:
+        """Superpose programs: ``other``'s layers edit the rest shape too, and their corner
+        displacements add to this program's. Shared parameters must agree.
+
+        Every relation is linear in the corners and holds at rest, so displacements that
+        each keep a relation keep it when added: at every combination of the parameters."""
+        sizes = tuple(n for n in (self.layers or (len(self.ops),)) + (other.layers or (len(other.ops),)) if n)
+        return Program(self.ops + other.ops, self._merged_parameters(other), {**self.metadata, **other.metadata},
+                       sizes)
 
     def renamed(self, old: str, new: str) -> Program:
         """The same program with parameter ``old`` called ``new`` (in its amounts too)."""
@@ -177,7 +232,7 @@ class Program:
         ops = tuple(dataclasses.replace(op, amount=rename(op.amount)) if old in op.parameters else op
                     for op in self.ops)
         params = tuple(dataclasses.replace(p, name=new) if p.name == old else p for p in self.parameters)
-        return Program(ops, params, dict(self.metadata))
+        return Program(ops, params, dict(self.metadata), self.layers)
 
     def validate(self, shape: ShapeGraph) -> None:
         """Check every operand against the shape; errors name the op and the part."""
@@ -213,6 +268,8 @@ class Program:
             "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default} for p in self.parameters],
             "ops": [op_to_dict(op) for op in self.ops],
         }
+        if self.layers:
+            data["layers"] = list(self.layers)
         if self.metadata:
             data["metadata"] = dict(self.metadata)
         return data
@@ -235,7 +292,7 @@ class Program:
         if type(data.get("version")) is not int or data.get("version") != PROGRAM_VERSION:  # true is not 1
             raise ProgramFormatError(f"{source}: unsupported program version {data.get('version')!r} "
                                      f"(this parsel reads {PROGRAM_VERSION})")
-        unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata"})
+        unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata", "layers"})
         if unknown:
             raise ProgramFormatError(f"{source}: unknown field(s) {', '.join(unknown)}")
         params = []
@@ -258,8 +315,11 @@ class Program:
         metadata = data.get("metadata", {})
         if not isinstance(metadata, Mapping):
             raise ProgramFormatError(f"{source}: field 'metadata' must be an object")
+        layers = data.get("layers", [])
+        if not isinstance(layers, list):
+            raise ProgramFormatError(f"{source}: field 'layers' must be a list of op counts")
         try:
-            program = cls(tuple(ops), tuple(params), dict(metadata))
+            program = cls(tuple(ops), tuple(params), dict(metadata), tuple(layers))
         except ProgramFormatError as exc:
             raise ProgramFormatError(f"{source}: {exc}") from None
         program.check_numbers(source)
@@ -312,18 +372,25 @@ def top_down_groups(program: Program) -> set[str]:
     return {op.operand for op in program.ops if isinstance(op, GroupOp) and op.mode == "top_down"}
 
 
+def anchor_groups(program: Program) -> list[set[str]]:
+    """For each op, the groups whose virtual parent carries only layout anchors there: those its
+    own layer lays out top-down. A layer moves a group's members with their parent when it does
+    not lay the group out itself, as it did when it was solved alone."""
+    out: list[set[str]] = []
+    for part in program.layer_slices:
+        groups = {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
+        out.extend(groups for _ in program.ops[part])
+    return out
+
+
 def laid_out_groups(program: Program) -> set[str]:
     """Groups whose instances a group op re-lays out."""
     return {op.operand for op in program.ops if isinstance(op, GroupOp)}
 
 
-def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
-                    math_ns: Any) -> dict[str, Any]:
-    """Run the part ops in order. An op on a virtual parent moves the parent and, with the
-    same point map, every member (affine ops map contained boxes exactly) — unless the group
-    is laid out top-down, where the parent only carries the anchors of the layout."""
-    anchors_only = top_down_groups(program)
-    for op, amount in zip(program.ops, amounts):
+def _run_part_ops(ops: Sequence[EditOp], shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
+                  math_ns: Any, anchors_only: set[str]) -> dict[str, Any]:
+    for op, amount in zip(ops, amounts):
         if op.acts_on != "part":
             continue
         targets = [op.operand]
@@ -332,6 +399,28 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
         for target in targets:
             corners[target] = op.apply(corners[target], amount, math_ns)
     return corners
+
+
+def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
+                    math_ns: Any) -> dict[str, Any]:
+    """Run the part ops in order. An op on a virtual parent moves the parent and, with the
+    same point map, every member (affine ops map contained boxes exactly) — unless the group
+    is laid out top-down, where the parent only carries the anchors of the layout.
+
+    In a layered program each layer runs on the rest ``corners`` and the result is the
+    rest corners plus every layer's displacement (a part no layer moves keeps its array)."""
+    slices = program.layer_slices
+    if len(slices) == 1:
+        return _run_part_ops(program.ops, shape, corners, amounts, math_ns, top_down_groups(program))
+    rest = dict(corners)
+    total = dict(corners)
+    for part in slices:
+        anchors_only = {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
+        layer = _run_part_ops(program.ops[part], shape, dict(rest), amounts[part], math_ns, anchors_only)
+        for pid, moved in layer.items():
+            if moved is not rest[pid]:
+                total[pid] = total[pid] + (moved - rest[pid])
+    return total
 
 
 def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray], amounts: Sequence[Any],
@@ -413,7 +502,7 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     # Touched parts start as CAS numbers so every corner entry is an expression.
     corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]
                                for pid in rest if pid in wanted or pid in touched}
-    _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), opmath)
+    corners = _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), opmath)
     return {pid: c for pid, c in corners.items() if pid in wanted}
 
 

@@ -3,7 +3,9 @@
 A relation is *kept* when its constraint holds (``||C||_inf < tol``) at every sampled
 parameter value, *broken on purpose* when the user (or the language model) allowed it
 to break, and *broken* otherwise (paper eq. 1: checked at random samples of the range,
-both ends included).
+both ends included). A program with several parameters is checked on the joint box of
+ranges: its corners, then random points (``parsel_core.joint.joint_samples``); each
+relation's report names the sample where its error is largest.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from parsel_core.cage import batched_cube_coordinates
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import CORNER_BITS
+from parsel_core.joint import joint_samples, sample_at
 from parsel_core.program import Program, evaluate, laid_out_groups
 from parsel_core.relations import Attachment, Relation
 
@@ -42,10 +45,15 @@ class RelationState:
     members: tuple[str, ...]
     state: str  # "kept" | "broken_on_purpose" | "broken"
     max_error: float
+    #: Parameter values of the joint sample with the largest error (programs with several parameters).
+    worst_at: dict[str, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "kind": self.kind, "members": list(self.members), "state": self.state,
+        data = {"id": self.id, "kind": self.kind, "members": list(self.members), "state": self.state,
                 "max_error": self.max_error}
+        if self.worst_at is not None:
+            data["worst_at"] = dict(self.worst_at)
+        return data
 
 
 @dataclass
@@ -56,6 +64,8 @@ class RelationReport:
     tolerance: float
     samples: int
     extra: dict[str, Any] = field(default_factory=dict)
+    #: How many of the samples are corners of the box of ranges (0 for one parameter).
+    box_corners: int = 0
 
     def states(self) -> dict[str, str]:
         return {r.id: r.state for r in self.relations}
@@ -67,8 +77,10 @@ class RelationReport:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        return {"tolerance": self.tolerance, "samples": self.samples, "counts": self.counts(),
-                "relations": [r.to_dict() for r in self.relations], **self.extra}
+        data: dict[str, Any] = {"tolerance": self.tolerance, "samples": self.samples}
+        if self.box_corners:
+            data["box_corners"] = self.box_corners
+        return {**data, "counts": self.counts(), "relations": [r.to_dict() for r in self.relations], **self.extra}
 
 
 def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str) -> np.ndarray:
@@ -109,21 +121,32 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     return errors
 
 
-def relation_error(relation: Relation, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()) -> float:
-    """Largest constraint error over the samples; attachments of laid-out members may slide."""
+def sample_errors(relation: Relation, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()) -> np.ndarray:
+    """The relation's error at each sample (NaN where a member was removed); its largest
+    finite value is :func:`relation_error`. Attachments of laid-out members may slide."""
     sliding = set(sliding)
     if isinstance(relation, Attachment):
         members = [m for m in relation.members if m in sliding]
         if members:
-            return float(max(np.max(sliding_error(relation, corners, m)) for m in members))
+            return np.max([np.asarray(sliding_error(relation, corners, m), dtype=float) for m in members], axis=0)
     errors = np.asarray(relation.error(corners), dtype=float)
-    errors = errors[~np.isnan(errors)]  # removed members (NaN corners) are not checked
-    error = float(errors.max()) if errors.size else 0.0
+    finite = errors[~np.isnan(errors)]  # removed members (NaN corners) are not checked
+    error = float(finite.max()) if finite.size else 0.0
     if error > 0 and isinstance(relation, Attachment) and relation.contact == "face":
         # Two faces in contact stay attached while they stay flush and one stays within the
         # other: a board may slide along the panel it rests on (docs/relations.md).
-        error = min(error, min(float(np.max(sliding_error(relation, corners, m))) for m in relation.members))
-    return error
+        slides = [np.asarray(sliding_error(relation, corners, m), dtype=float) for m in relation.members]
+        best = min(range(len(slides)), key=lambda i: float(np.max(slides[i])))
+        if float(np.max(slides[best])) < error:
+            return slides[best]
+    return errors
+
+
+def relation_error(relation: Relation, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()) -> float:
+    """Largest constraint error over the samples; attachments of laid-out members may slide."""
+    errors = np.asarray(sample_errors(relation, corners, sliding), dtype=float)
+    errors = errors[~np.isnan(errors)]
+    return float(errors.max()) if errors.size else 0.0
 
 
 def relation_errors(shape: ShapeGraph, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()
@@ -149,13 +172,21 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
     for rid in breaks:
         shape.relation(rid)
     tolerance = tolerance_for(shape) if tolerance is None else tolerance
-    corners = evaluate(program, shape, sample_values(program, samples)).parts
+    values, box = joint_samples(program, samples)
+    corners = evaluate(program, shape, values).parts
+    sliding = sliding_members(shape, program)
+    joint = len(program.parameters) > 1
     states = []
-    for rid, error in relation_errors(shape, corners, sliding_members(shape, program)).items():
-        relation = shape.relations[rid]
+    for rid, relation in shape.relations.items():
+        errors = np.asarray(sample_errors(relation, corners, sliding), dtype=float).reshape(-1)
+        finite = np.where(np.isnan(errors), -np.inf, errors)
+        worst = int(np.argmax(finite)) if errors.size else 0
+        error = float(finite[worst]) if errors.size and np.isfinite(finite[worst]) else 0.0
         state = "kept" if error < relation.allowance(tolerance) else "broken_on_purpose" if rid in breaks else "broken"
-        states.append(RelationState(rid, relation.kind, relation.members, state, error))
-    return RelationReport(states, tolerance, samples)
+        at = sample_at(values, worst) if joint and errors.size == len(next(iter(values.values()))) else None
+        states.append(RelationState(rid, relation.kind, relation.members, state, error, at))
+    count = len(next(iter(values.values()))) if values else samples
+    return RelationReport(states, tolerance, count, box_corners=box)
 
 
 def report_from_errors(shape: ShapeGraph, errors: Mapping[str, float], breaks: Iterable[str] = (),
@@ -172,14 +203,13 @@ def report_from_errors(shape: ShapeGraph, errors: Mapping[str, float], breaks: I
     return RelationReport(states, tolerance, samples)
 
 
-def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
-                         samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> dict[str, dict[str, int]]:
-    """State counts with one slider moving at a time, the others at their lower end.
+def each_parameter_states(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
+                          samples: int = DEFAULT_SAMPLES, tolerance: float | None = None
+                          ) -> dict[str, dict[str, str]]:
+    """Each relation's state with one slider moving at a time, the others at their lower end.
 
-    Stacked programs (proxydural models) are solved one request at a time, so each slider
-    keeps what its own program keeps; moving several at once composes edits whose origins
-    were fixed for the rest shape and can break more.
-    """
+    What each slider keeps alone is what a program with several parameters must keep at
+    every combination of them (the joint check, :func:`check_program`)."""
     breaks = set(breaks)
     tolerance = tolerance_for(shape) if tolerance is None else tolerance
     sliding = sliding_members(shape, program)
@@ -188,9 +218,28 @@ def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[s
         values = {p.name: np.full(samples, p.lo) for p in program.parameters}
         values[parameter.name] = parameter.samples(samples, seed=i)
         corners = evaluate(program, shape, values).parts
-        counts = {"kept": 0, "broken_on_purpose": 0, "broken": 0}
+        states = {}
         for rid, error in relation_errors(shape, corners, sliding).items():
             kept = error < shape.relations[rid].allowance(tolerance)
-            counts["kept" if kept else "broken_on_purpose" if rid in breaks else "broken"] += 1
-        out[parameter.name] = counts
+            states[rid] = "kept" if kept else "broken_on_purpose" if rid in breaks else "broken"
+        out[parameter.name] = states
     return out
+
+
+def check_each_parameter(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
+                         samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> dict[str, dict[str, int]]:
+    """State counts with one slider moving at a time, the others at their lower end."""
+    out = {}
+    for name, states in each_parameter_states(shape, program, breaks, samples, tolerance).items():
+        counts = {"kept": 0, "broken_on_purpose": 0, "broken": 0}
+        for state in states.values():
+            counts[state] += 1
+        out[name] = counts
+    return out
+
+
+def kept_alone(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
+               samples: int = DEFAULT_SAMPLES) -> set[str]:
+    """Relations every slider keeps when it moves alone: the ones the joint box must keep."""
+    per = each_parameter_states(shape, program, breaks, samples)
+    return {rid for rid in shape.relations if all(states[rid] == "kept" for states in per.values())}

@@ -8,6 +8,9 @@ Example::
     translate(face(seat, "v+"), dir=(0, 1, 0), amount=0.5 * x)
     change_count("translation_0", amount=2 * x, mode="top_down")
 
+A line ``layer`` starts a new layer of a layered program (``Program.plus``): the ops
+below it edit the rest shape too, and their displacements add to those above.
+
 An operand is a part id (a bare name when it is an identifier, a string otherwise), or
 ``face(part, "u+")`` / ``edge(part, "u+v-")`` / ``corner(part, "u+v+w-")`` for a
 feature. Keyword values are tuples of numbers, strings, or (for ``amount``) an
@@ -57,7 +60,10 @@ def program_to_text(program) -> str:
     lines = ["# parsel program"]
     for p in program.parameters:
         lines.append(f"param {p.name} in [{p.lo!r}, {p.hi!r}] default {p.default!r}")
-    lines.extend(op_to_text(op) for op in program.ops)
+    for i, part in enumerate(program.layer_slices):
+        if i:
+            lines.append("layer")
+        lines.extend(op_to_text(op) for op in program.ops[part])
     return "\n".join(lines) + "\n"
 
 
@@ -144,12 +150,17 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
 
     lines = text.splitlines()
     check_limit("max_program_lines", f"{source}: lines", len(lines))
-    params, ops = [], []
+    params, ops, layers = [], [], []
     for number, raw in enumerate(lines, start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
         where = f"{source}:{number}"
+        if line.split("#", 1)[0].strip() == "layer":
+            if len(ops) == sum(layers):
+                raise ProgramFormatError(f"{where}: 'layer' must follow at least one op (a layer has ops)")
+            layers.append(len(ops) - sum(layers))
+            continue
         if line.split()[0] == "param":
             line = line.split("#", 1)[0].strip()  # op lines keep theirs: ast skips comments
             match = _PARAM.match(line)
@@ -182,8 +193,12 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
             raise ProgramFormatError(f"{where}: amount {op.amount!r} uses undeclared parameter(s) "
                                      f"{', '.join(unknown)} (declare with 'param NAME in [LO, HI]')")
     ops = [op for _, op in ops]
+    if layers:
+        if len(ops) == sum(layers):
+            raise ProgramFormatError(f"{source}: the last 'layer' line has no ops after it")
+        layers.append(len(ops) - sum(layers))
     try:
-        program = Program(tuple(ops), tuple(params))
+        program = Program(tuple(ops), tuple(params), {}, tuple(layers))
     except ProgramFormatError as exc:
         raise ProgramFormatError(f"{source}: {exc}") from None
     program.check_numbers(source)

@@ -2,9 +2,11 @@
 
 ``parsel edit`` writes ``OUTDIR/program.json`` with the shape's name in the program's
 metadata (``"shape"``), so ``parsel view OUTDIR`` needs nothing else. Several programs
-are stacked with :meth:`Program.then` (the second edits the output of the first); a
-parameter name that an earlier program already uses is renamed (``x`` -> ``x_2``) in
-the later one, amounts included, so every program keeps its own slider.
+are added as layers with :meth:`Program.plus` (each was solved on the rest shape, so
+their displacements add and every slider combination keeps the relations each keeps
+alone; docs/aep.md); a parameter name that an earlier program already uses is renamed
+(``x`` -> ``x_2``) in the later one, amounts included, so every program keeps its own
+slider, labelled with its request.
 """
 
 from __future__ import annotations
@@ -61,13 +63,17 @@ def rename_parameters(program: Program, names: dict[str, str]) -> Program:
         tree = _Rename(names).visit(ast.parse(parse_expression(op.amount).text, mode="eval"))
         ops.append(dataclasses.replace(op, amount=ast.unparse(tree)))
     parameters = [Parameter(names.get(p.name, p.name), p.lo, p.hi, p.default) for p in program.parameters]
-    return Program(tuple(ops), tuple(parameters), dict(program.metadata))
+    return Program(tuple(ops), tuple(parameters), dict(program.metadata), program.layers)
 
 
 def stack_programs(programs: Sequence[Program]) -> Program:
-    """Programs applied one after the other, each keeping its own parameters."""
+    """Programs added as layers, each keeping its own parameters; ``metadata["requests"]``
+    names each parameter's request."""
+    from parsel_core.joint import requests_of
+
     result = programs[0]
     used = set(result.parameter_names)
+    requests = requests_of(result)
     for i, program in enumerate(programs[1:], start=2):
         renames = {}
         for name in program.parameter_names:
@@ -77,10 +83,13 @@ def stack_programs(programs: Sequence[Program]) -> Program:
                     k += 1
                     new = f"{name}_{k}"
                 renames[name] = new
+        requests += [{"request": r["request"], "parameter": renames.get(r["parameter"], r["parameter"])}
+                     for r in requests_of(program)]
         program = rename_parameters(program, renames)
         used.update(program.parameter_names)
-        result = result.then(program)
-    return result
+        result = result.plus(program)
+    meta = {k: v for k, v in dict(result.metadata).items() if k not in ("request", "seed", "requests")}
+    return Program(result.ops, result.parameters, {**meta, "requests": requests}, result.layers)
 
 
 def read_inputs(specs: Sequence[str], shape_spec: str | None = None) -> ViewInputs:

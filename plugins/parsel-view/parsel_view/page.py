@@ -41,6 +41,8 @@ _BODY = """<div id="panel">
 <div id="request"></div>
 <div id="sliders"></div>
 <div id="values"></div>
+<div id="relations" role="status" aria-live="polite"></div>
+<button type="button" id="reset-view">reset view</button>
 <details><summary>program</summary><pre id="program"></pre></details>
 <div id="status">loading…</div>
 </div>

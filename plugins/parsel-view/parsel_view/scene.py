@@ -10,6 +10,12 @@ the rest shape (the anchors' cage coordinates in the virtual parent, the rest st
 Each part's mesh is sent as the cube coordinates ``(u, v, w)`` of its vertices in the
 part's rest hexahedron; the page turns them into the 8 trilinear weights once, and a
 slider step is then one ``(m, 8) @ (8, 3)`` product per edited part.
+
+So that the page can say when the current slider values break a relation, each relation
+goes as its linear map from the members' corner displacements to its residual (every
+relation is linear in the corners), with its allowance and, for attachments, the cage
+weights the sliding-contact check needs. The camera is fitted to the bounds of the
+shape over the whole box of parameter ranges, so the shape stays in view as it grows.
 """
 
 from __future__ import annotations
@@ -38,7 +44,7 @@ from parsel_core.ops import (
     Shear,
     Translate,
 )
-from parsel_core.program import Program, top_down_groups
+from parsel_core.program import Program, anchor_groups
 from parsel_core.relations import RotationSymmetry, TranslationSymmetry
 from parsel_core.textform import display_text
 from parsel_view.jsexpr import amounts_script
@@ -145,8 +151,8 @@ def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
     """The program reduced to numbers for ``parsel_eval.js`` (amounts go to :func:`amounts_script`)."""
     program.validate(shape)
     rest = rest_values(program)
-    anchors_only = top_down_groups(program)
-    ops = [_op_data(i, op, shape, anchors_only) for i, op in enumerate(program.ops)]
+    anchors = anchor_groups(program)
+    ops = [_op_data(i, op, shape, anchors[i]) for i, op in enumerate(program.ops)]
     per_group: dict[str, list[tuple[int, GroupOp]]] = {}
     for i, op in enumerate(program.ops):
         if isinstance(op, GroupOp):
@@ -155,9 +161,88 @@ def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
         "parameters": [{"name": p.name, "lo": p.lo, "hi": p.hi, "default": p.default, "rest": rest[p.name]}
                        for p in program.parameters],
         "ops": ops,
+        "layers": [[part.start, part.stop] for part in program.layer_slices],
         "groups": [_group_data(g, group_ops, shape) for g, group_ops in per_group.items()],
         "rest": {pid: np.asarray(c, dtype=float).ravel().tolist() for pid, c in shape.rest_corners().items()},
     }
+
+
+def slider_labels(program: Program) -> dict[str, str]:
+    """Each parameter's request text (``metadata["requests"]``, or the one request or seed of
+    a single edit), which the page shows above its slider."""
+    from parsel_core.joint import requests_of
+
+    names = set(program.parameter_names)
+    return {item["parameter"]: item["request"] for item in requests_of(program)
+            if item["parameter"] in names and item["request"]}
+
+
+def relation_data(shape: ShapeGraph, program: Program) -> dict[str, Any]:
+    """Every relation as numbers the page checks at each slider step: ``residual = r0 + M d``
+    with ``d`` the members' corner displacements from rest (M sparse: rows, columns, values),
+    its allowance, whether it may break (the program's ``breaks``), the members' part names,
+    and for attachments the weights of the sliding-contact check (``parsel_core.report``)."""
+    from parsel_core.relations import Attachment
+    from parsel_core.report import sliding_members, tolerance_for
+
+    rest = shape.rest_corners()
+    tolerance = tolerance_for(shape)
+    breaks = set(program.metadata.get("breaks") or ()) if isinstance(program.metadata.get("breaks"), list) else set()
+    sliding = sliding_members(shape, program)
+    out = []
+    for rid, relation in shape.relations.items():
+        members = list(relation.members)
+        base = {m: np.asarray(rest[m], dtype=float) for m in members}
+        r0 = np.asarray(relation.residual(base), dtype=float).reshape(-1)
+        raw0 = np.asarray(relation.constraint(base), dtype=float).reshape(-1)
+        rows, cols, vals = [], [], []
+        for j, m in enumerate(members):
+            for k in range(24):
+                moved = dict(base)
+                bumped = base[m].copy().reshape(-1)
+                bumped[k] += 1.0
+                moved[m] = bumped.reshape(8, 3)
+                column = np.asarray(relation.constraint(moved), dtype=float).reshape(-1) - raw0
+                for row in np.nonzero(np.abs(column) > 1e-14)[0]:
+                    rows.append(int(row))
+                    cols.append(j * 24 + k)
+                    vals.append(float(column[row]))
+        item: dict[str, Any] = {
+            "id": rid, "kind": relation.kind, "members": members,
+            "names": [shape.parts[m].name if m in shape.parts else m for m in members],
+            "size": int(r0.size), "r0": r0.tolist(), "rows": rows, "cols": cols, "vals": vals,
+            "allowance": float(relation.allowance(tolerance)), "may_break": rid in breaks,
+        }
+        if isinstance(relation, Attachment):
+            item["weights"] = [np.asarray(relation.weights_a).tolist(), np.asarray(relation.weights_b).tolist()]
+            item["face"] = relation.contact == "face"
+            item["sliding"] = [m for m in members if m in sliding]
+        out.append(item)
+    return {"relations": out, "tolerance": tolerance}
+
+
+def view_bounds(shape: ShapeGraph, program: Program, count: int = 48) -> list[list[float]]:
+    """Bounds of every part (and group instance) over the box of parameter ranges: its corners
+    and ``count`` random joint samples. The page fits its camera to them."""
+    from parsel_core.joint import joint_samples, sample_at
+    from parsel_core.program import evaluate, laid_out_groups
+
+    rest = np.concatenate([np.asarray(c, dtype=float) for c in shape.rest_corners().values()])
+    lo, hi = rest.min(axis=0), rest.max(axis=0)
+    if not program.parameters:
+        return [lo.tolist(), hi.tolist()]
+    values, box = joint_samples(program, count)
+    parts = evaluate(program, shape, values).parts
+    every = np.concatenate([np.asarray(c, dtype=float).reshape(-1, 3) for c in parts.values()])
+    if laid_out_groups(program):  # instances past the old count exist only in scalar evaluations
+        n = len(next(iter(values.values())))
+        for index in range(min(n, max(box, 2) + 16)):
+            for instances in evaluate(program, shape, sample_at(values, index)).instances.values():
+                every = np.concatenate([every, np.asarray(instances, dtype=float).reshape(-1, 3)])
+    every = every[np.all(np.isfinite(every), axis=1)]
+    if len(every):
+        lo, hi = np.minimum(lo, every.min(axis=0)), np.maximum(hi, every.max(axis=0))
+    return [lo.tolist(), hi.tolist()]
 
 
 def _part_mesh(shape: ShapeGraph, pid: str) -> tuple[np.ndarray, np.ndarray]:
@@ -216,6 +301,8 @@ def build_page_data(program: Program, shape: ShapeGraph, title: str | None = Non
                     meta: Mapping[str, Any] | None = None) -> PageData:
     """The page's scene for ``program`` on ``shape``; raises ``ParselError`` naming a mismatch."""
     data = program_data(program, shape)
+    script = amounts_script([op.amount for op in program.ops], program.parameter_names,
+                            generated_point_maps(program))  # first: it refuses ops the page cannot draw
     corners = np.concatenate([np.asarray(c, dtype=float) for c in shape.rest_corners().values()])
     info = {key: value for key, value in dict(program.metadata).items() if isinstance(value, (str, int, float))}
     scene = {
@@ -226,9 +313,10 @@ def build_page_data(program: Program, shape: ShapeGraph, title: str | None = Non
         "metadata": info,
         "program_text": display_text(program.to_text()),
         "bounds": [corners.min(axis=0).tolist(), corners.max(axis=0).tolist()],
+        "view_bounds": view_bounds(shape, program),
+        "sliders": slider_labels(program),
         "meshes": mesh_data(shape),
+        **relation_data(shape, program),
         **data,
     }
-    script = amounts_script([op.amount for op in program.ops], program.parameter_names,
-                            generated_point_maps(program))
     return PageData(scene, script, program, shape, dict(meta or {}))

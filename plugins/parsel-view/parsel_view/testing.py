@@ -50,8 +50,9 @@ const results = JSON.parse(fs.readFileSync(valuesPath, "utf8")).map((values) => 
     vertices[item.name] = plain(model.deformInto(item.mesh, item.corners));
     if (model.flipped(item.mesh, item.corners)) flipped.push(item.name);
   }
+  const broken = model.brokenRelations(evaluation).map((b) => b.id).sort();
   return { parts, instances, removed: Object.keys(evaluation.removed).sort(), vertices, amounts: evaluation.amounts,
-           flipped: flipped.sort() };
+           flipped: flipped.sort(), broken };
 });
 process.stdout.write(JSON.stringify(results));
 """
@@ -66,8 +67,9 @@ def node_evaluate(page: PageData, values: Sequence[Mapping[str, float]]) -> list
     """Evaluate the page's program with ``parsel_eval.js`` in Node at each set of ``values``.
 
     Returns per set: ``parts`` (id -> 24 corner numbers, ``None`` for NaN), ``instances``,
-    ``removed``, ``vertices`` (drawn name -> flat float32 positions), ``amounts`` and
-    ``flipped`` (drawn names whose mesh an edit mirrors or folds, ``Model.flipped``)."""
+    ``removed``, ``vertices`` (drawn name -> flat float32 positions), ``amounts``,
+    ``flipped`` (drawn names whose mesh an edit mirrors or folds, ``Model.flipped``) and
+    ``broken`` (ids of the relations the values break, ``Model.brokenRelations``)."""
     node = node_path()
     if node is None:
         raise RuntimeError("node is not installed")

@@ -159,3 +159,41 @@ def test_parts_named_like_javascript_object_members_show_on_the_page():
     assert sorted(results[1]["vertices"]) == sorted(names)  # every part is drawn
     moved = np.array(results[1]["parts"]["constructor"]).reshape(8, 3)
     assert moved[:, 1].min() == pytest.approx(0.5)
+
+
+def test_layered_programs_add_displacements_like_python(chair):
+    first = Program.from_text("param x1 in [0, 1]\nscale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x1)\n"
+                              "translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x1)")
+    second = Program.from_text("param x2 in [0, 1]\nscale_2d('leg.000', origin=(-0.19, 0.2075, 0.18), "
+                               "normal=(0, 1, 0), amount=x2)\nrotate(seat, origin=(0, 0.43, 0), axis=(0, 1, 0), "
+                               "amount=0.3 * x2)")
+    layered = first.plus(second)
+    page = build_page_data(layered, chair)
+    assert page.scene["layers"] == [[0, 2], [2, 4]]
+    assert_same(layered, chair, [{"x1": 0.0, "x2": 0.0}, {"x1": 0.7, "x2": 0.4}, {"x1": 1.0, "x2": 1.0}])
+
+
+def test_the_page_finds_the_relations_python_finds_broken():
+    """The page's relation check (linear residuals, sliding contacts, laid-out groups) against parsel_core.report."""
+    from parsel_core.api import as_shape, edit, proxydural
+    from parsel_core.report import relation_errors, sliding_members, tolerance_for
+
+    chair = as_shape("chair")  # with its detected relations
+    wider = edit(chair, seed="scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)").program
+    thicker = edit(chair, seed="scale_2d('leg.000', origin=(-0.19, 0.2075, 0.18), normal=(0, 1, 0), "
+                               "amount=x)").program.renamed("x", "x_2")
+    sequential = wider.then(thicker)  # the old stacking: the legs thicken about their rest centres
+    shelf = proxydural("shelf", 4)  # layers with a re-laid-out row of boards sliding along the panels
+    values = [{"x": 0.0, "x_2": 0.0}, {"x": 1.0, "x_2": 0.0}, {"x": 1.0, "x_2": 1.0}, {"x": 0.3, "x_2": 0.8}]
+    shelf_values = [{f"x{i}": v for i, v in enumerate(row, start=1)}
+                    for row in ([0, 0, 0, 0], [1, 1, 1, 1], [1, 0, 1, 0.6], [0.2, 0.9, 0.4, 1])]
+    cases = [(chair, sequential, values), (chair, stack_programs([wider, thicker.renamed("x_2", "x")]), values),
+             (shelf.shape, shelf.program, shelf_values)]
+    for shape, program, points in cases:
+        tolerance = tolerance_for(shape)
+        results = node_evaluate(build_page_data(program, shape), points)
+        for value, result in zip(points, results):
+            errors = relation_errors(shape, evaluate(program, shape, value).parts, sliding_members(shape, program))
+            expected = sorted(r for r, e in errors.items() if not e < shape.relations[r].allowance(tolerance))
+            assert result["broken"] == expected, value
+    assert node_evaluate(build_page_data(sequential, chair), [values[2]])[0]["broken"]  # the old way breaks some

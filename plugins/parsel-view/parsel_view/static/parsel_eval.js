@@ -4,10 +4,14 @@
  *   1. every op's amount: PARSEL_AMOUNTS[i](values), generated from the safe expression tree;
  *   2. part ops in program order, each the point map of parsel_core/ops.py on the corners
  *      of its targets (on a feature, only that feature's corners); ops without a map here
- *      (plugins') use the one generated from their transform, PARSEL_POINT_MAPS[i];
+ *      (plugins') use the one generated from their transform, PARSEL_POINT_MAPS[i]; in a
+ *      layered program (scene.layers) each layer runs on the rest corners and the layers'
+ *      displacements add, as parsel_core.program._apply_part_ops does;
  *   3. group layouts (parsel_core/layout.py): instances of the first member as edited;
  *   4. meshes: each vertex holds its 8 trilinear weights in its part's rest hexahedron,
- *      so its position is one (m, 8) @ (8, 3) product with the evaluated corners.
+ *      so its position is one (m, 8) @ (8, 3) product with the evaluated corners;
+ *   5. relations (brokenRelations): each relation's residual r0 + M d, d the members'
+ *      corner displacements, with parsel_core.report's sliding contacts for attachments.
  * Corners are Float64Array(24) in canonical corner order (corner k at the bits of k).
  */
 (function (root) {
@@ -287,19 +291,38 @@
     return out;
   };
 
-  /* {parts: {id: Float64Array(24)}, instances: {group: [Float64Array(24)]}, removed: {id: true}} */
-  Model.prototype.evaluate = function (values) {
-    var amounts = this.amounts(values), parts = table(), pid, i, t;
-    for (pid in this.rest) parts[pid] = Float64Array.from(this.rest[pid]);
+  /* Part ops first..last-1 on `parts`; `fresh` (optional) makes a target's array on first use. */
+  Model.prototype.runOps = function (first, last, parts, amounts, fresh) {
     var ops = this.scene.ops;
-    for (i = 0; i < ops.length; i++) {
+    for (var i = first; i < last; i++) {
       if (ops[i].kind !== "part") continue;
       var generated = ops[i].generated ? this.pointMaps[ops[i].index] : null;
       if (ops[i].generated && typeof generated !== "function") {
         throw new Error("op " + ops[i].index + " (" + ops[i].op + ") has no point map in program.js");
       }
-      for (t = 0; t < ops[i].targets.length; t++) {
-        applyOp(ops[i], parts[ops[i].targets[t]], amounts[i], generated);
+      for (var t = 0; t < ops[i].targets.length; t++) {
+        var target = ops[i].targets[t];
+        if (fresh && !parts[target]) parts[target] = Float64Array.from(this.rest[target]);
+        applyOp(ops[i], parts[target], amounts[i], generated);
+      }
+    }
+  };
+
+  /* {parts: {id: Float64Array(24)}, instances: {group: [Float64Array(24)]}, removed: {id: true}} */
+  Model.prototype.evaluate = function (values) {
+    var amounts = this.amounts(values), parts = table(), pid, i, t;
+    for (pid in this.rest) parts[pid] = Float64Array.from(this.rest[pid]);
+    var layers = this.scene.layers || [[0, this.scene.ops.length]];
+    if (layers.length <= 1) {
+      this.runOps(0, this.scene.ops.length, parts, amounts, false);
+    } else {
+      for (i = 0; i < layers.length; i++) {
+        var layer = table();
+        this.runOps(layers[i][0], layers[i][1], layer, amounts, true);
+        for (pid in layer) {
+          var total = parts[pid], moved = layer[pid], rest = this.rest[pid];
+          for (t = 0; t < 24; t++) total[t] = total[t] + (moved[t] - rest[t]);
+        }
       }
     }
     var instances = table(), removed = table();
@@ -364,8 +387,113 @@
     return list;
   };
 
+  /* Cube coordinates (u, v, w) of point p in hexahedron c: parsel_core.cage.inverse_trilinear
+     (the affine solve, then Newton steps where the cage is not a parallelepiped). */
+  function solve3(m, r) {  /* m row-major 3x3 with columns the derivatives; returns m^-1 r */
+    var d = det3(m);
+    if (!(Math.abs(d) > 0)) return null;
+    var inv = [m[4] * m[8] - m[5] * m[7], m[2] * m[7] - m[1] * m[8], m[1] * m[5] - m[2] * m[4],
+      m[5] * m[6] - m[3] * m[8], m[0] * m[8] - m[2] * m[6], m[2] * m[3] - m[0] * m[5],
+      m[3] * m[7] - m[4] * m[6], m[1] * m[6] - m[0] * m[7], m[0] * m[4] - m[1] * m[3]];
+    return [(inv[0] * r[0] + inv[1] * r[1] + inv[2] * r[2]) / d, (inv[3] * r[0] + inv[4] * r[1] + inv[5] * r[2]) / d,
+      (inv[6] * r[0] + inv[7] * r[1] + inv[8] * r[2]) / d];
+  }
+
+  function cubeCoordinates(c, p) {
+    var frame = [], a, i, k;
+    for (i = 0; i < 3; i++) {
+      frame.push(c[12 + i] - c[i], c[6 + i] - c[i], c[3 + i] - c[i]);  /* row i: d/du, d/dv, d/dw */
+    }
+    var uvw = solve3(frame, [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+    if (!uvw) return null;
+    for (var it = 0; it < 30; it++) {
+      var w = trilinearWeights(uvw), q = [0, 0, 0], jac = [0, 0, 0, 0, 0, 0, 0, 0, 0];
+      for (k = 0; k < 8; k++) {
+        var bits = [(k >> 2) & 1, (k >> 1) & 1, k & 1];
+        var f = [bits[0] ? uvw[0] : 1 - uvw[0], bits[1] ? uvw[1] : 1 - uvw[1], bits[2] ? uvw[2] : 1 - uvw[2]];
+        var du = (2 * bits[0] - 1) * f[1] * f[2], dv = (2 * bits[1] - 1) * f[0] * f[2], dw = (2 * bits[2] - 1) * f[0] * f[1];
+        for (i = 0; i < 3; i++) {
+          q[i] += w[k] * c[3 * k + i];
+          jac[3 * i] += du * c[3 * k + i]; jac[3 * i + 1] += dv * c[3 * k + i]; jac[3 * i + 2] += dw * c[3 * k + i];
+        }
+      }
+      var r = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+      if (Math.max(Math.abs(r[0]), Math.abs(r[1]), Math.abs(r[2])) < (it === 0 ? 1e-9 : 1e-13)) break;
+      var step = solve3(jac, r);
+      if (!step) break;
+      for (a = 0; a < 3; a++) uvw[a] -= step[a];
+    }
+    return uvw;
+  }
+
+  /* parsel_core.report.sliding_error for one evaluation: how far `member`'s contact slid off the other part. */
+  function slidingError(rel, parts, member) {
+    var own = parts[member], otherId = rel.members[member === rel.members[0] ? 1 : 0], target = parts[otherId];
+    if (!own || !target || own[0] !== own[0] || target[0] !== target[0]) return 0;
+    var ownW = rel.weights[member === rel.members[0] ? 0 : 1], otherW = rel.weights[member === rel.members[0] ? 1 : 0];
+    var extents = [0, 0, 0], axisCorner = [4, 2, 1], a, i, k, worst = 0;
+    for (a = 0; a < 3; a++) {
+      var e = axisCorner[a];
+      extents[a] = Math.hypot(target[3 * e] - target[0], target[3 * e + 1] - target[1], target[3 * e + 2] - target[2]);
+    }
+    for (i = 0; i < ownW.length; i++) {
+      var p = weighted(ownW[i], own), uvw = cubeCoordinates(target, p);
+      if (!uvw) return Infinity;
+      var restUvw = [0, 0, 0];
+      for (k = 0; k < 8; k++) {
+        restUvw[0] += otherW[i][k] * ((k >> 2) & 1); restUvw[1] += otherW[i][k] * ((k >> 1) & 1);
+        restUvw[2] += otherW[i][k] * (k & 1);
+      }
+      for (a = 0; a < 3; a++) {
+        var boundary = Math.abs(restUvw[a]) < 1e-9 || Math.abs(restUvw[a] - 1) < 1e-9;
+        var drift = boundary ? Math.abs(uvw[a] - restUvw[a]) : Math.max(0, -uvw[a]) + Math.max(0, uvw[a] - 1);
+        worst = Math.max(worst, drift * extents[a]);
+      }
+    }
+    return worst;
+  }
+
+  /* parsel_core.report.relation_error for one evaluation (0 when a member was removed). */
+  function relationError(rel, parts, rest) {
+    var i, j;
+    if (rel.sliding && rel.sliding.length) {
+      var slid = 0;
+      for (j = 0; j < rel.sliding.length; j++) slid = Math.max(slid, slidingError(rel, parts, rel.sliding[j]));
+      return slid;
+    }
+    var residual = rel.r0.slice(), members = [];
+    for (j = 0; j < rel.members.length; j++) {
+      var c = parts[rel.members[j]];
+      if (!c || c[0] !== c[0]) return 0;
+      members.push(c);
+    }
+    for (i = 0; i < rel.vals.length; i++) {
+      var col = rel.cols[i], m = (col / 24) | 0, k = col % 24;
+      residual[rel.rows[i]] += rel.vals[i] * (members[m][k] - rest[rel.members[m]][k]);
+    }
+    var error = 0;
+    for (i = 0; i < residual.length; i++) error = Math.max(error, Math.abs(residual[i]));
+    if (error > 0 && rel.face) {
+      error = Math.min(error, slidingError(rel, parts, rel.members[0]), slidingError(rel, parts, rel.members[1]));
+    }
+    return error;
+  }
+
+  /* The relations an evaluation breaks: [{id, kind, names, error, mayBreak}], worst first. */
+  Model.prototype.brokenRelations = function (evaluation) {
+    var out = [], relations = this.scene.relations || [];
+    for (var i = 0; i < relations.length; i++) {
+      var rel = relations[i], error = relationError(rel, evaluation.parts, this.rest);
+      if (!(error < rel.allowance)) {
+        out.push({ id: rel.id, kind: rel.kind, names: rel.names.slice(), error: error, mayBreak: rel.may_break === true });
+      }
+    }
+    out.sort(function (a, b) { return b.error - a.error; });
+    return out;
+  };
+
   var api = {
-    Model: Model, table: table, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
+    Model: Model, relationError: relationError, cubeCoordinates: cubeCoordinates, table: table, orientation: orientation, orientations: orientations, decodeBase64: decodeBase64,
     trilinearWeights: trilinearWeights, applyOp: applyOp, translationLayout: translationLayout,
     rotationLayout: rotationLayout, POINT_MAPS: POINT_MAPS
   };

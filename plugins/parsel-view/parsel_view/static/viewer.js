@@ -2,8 +2,15 @@
  * re-evaluates the program and deforms the meshes right here (parsel_eval.js), then
  * draws them (minigl.js). Nothing goes back to the server.
  *
+ * Each slider is labelled with the request it came from (the program's metadata) and its
+ * parameter name. After every step the relations are checked (parsel_eval.js): the page
+ * names any the current values break, by part names, instead of showing floating parts
+ * silently. The camera fits the bounds of the shape over the whole box of parameter
+ * ranges (scene.view_bounds), so the shape stays in view as it grows; "reset view" returns to it.
+ *
  * window.parsel is a small hook for tests and for the curious: values(), set(name, v),
- * vertices(name), corners(name), instances(group), labelAt(x, y), measureFps(ms).
+ * vertices(name), corners(name), instances(group), labelAt(x, y), broken(), screenExtent(),
+ * resetView(), measureFps(ms).
  */
 (function () {
   "use strict";
@@ -11,7 +18,7 @@
   var state = {
     model: null, renderer: null, camera: null, values: ParselEval.table(), evaluation: null, base: null, groups: [],
     names: [null], hovered: 0, frameRequested: false, pickAt: null, updates: 0, frames: 0, sliders: ParselEval.table(),
-    measuring: false
+    measuring: false, broken: [], brokenText: null
   };
 
   function byId(id) { return document.getElementById(id); }
@@ -118,6 +125,39 @@
     drawn.batch.cull = cull;
   }
 
+  /* Say which relations the current values break (by part names), or that all hold. */
+  function showRelations(evaluation) {
+    var box = byId("relations"), broken = state.model.brokenRelations(evaluation);
+    state.broken = broken;
+    var unexpected = broken.filter(function (b) { return !b.mayBreak; });
+    var text = broken.map(function (b) { return b.id + (b.mayBreak ? "*" : ""); }).join(",");
+    if (text === state.brokenText) return;
+    state.brokenText = text;
+    var total = (state.model.scene.relations || []).length;
+    box.textContent = "";
+    if (!broken.length) {
+      box.className = "";
+      box.textContent = "all " + total + " relations hold";
+      return;
+    }
+    box.className = unexpected.length ? "broken" : "";
+    box.appendChild(document.createTextNode(unexpected.length
+      ? unexpected.length + " relation" + (unexpected.length > 1 ? "s" : "") + " broken at these values:"
+      : "only relations the request allows to break are broken:"));
+    var list = document.createElement("ul");
+    broken.slice(0, 8).forEach(function (b) {
+      var item = document.createElement("li");
+      item.textContent = b.names.join(" \u2013 ") + " (" + b.kind + " " + b.id + (b.mayBreak ? ", allowed" : "") + ")";
+      list.appendChild(item);
+    });
+    if (broken.length > 8) {
+      var more = document.createElement("li");
+      more.textContent = "and " + (broken.length - 8) + " more";
+      list.appendChild(more);
+    }
+    box.appendChild(list);
+  }
+
   /* One slider step: evaluate the program, move the meshes whose corners changed. */
   function update() {
     var evaluation = state.model.evaluate(state.values), i, j;
@@ -136,6 +176,7 @@
     state.evaluation = evaluation;
     state.updates++;
     showValues();
+    showRelations(evaluation);
     requestFrame();
   }
 
@@ -178,11 +219,18 @@
     return null;
   }
 
-  function buildSliders(parameters) {
+  function buildSliders(parameters, requests) {
     var box = byId("sliders");
     parameters.forEach(function (p) {
       var row = document.createElement("div");
       row.className = "slider";
+      var request = null;
+      if (requests && typeof requests[p.name] === "string" && requests[p.name]) {
+        request = document.createElement("div");
+        request.className = "request";
+        request.id = "request-" + p.name;
+        request.textContent = requests[p.name];
+      }
       var label = document.createElement("label");
       label.textContent = p.name;
       var input = document.createElement("input");
@@ -192,7 +240,7 @@
       input.step = "any";  // typed and dragged values are kept exactly; keys move 1% (below)
       input.value = String(state.values[p.name]);
       input.id = "slider-" + p.name;
-      input.setAttribute("aria-label", p.name);
+      input.setAttribute("aria-label", request ? p.name + ": " + request.textContent : p.name);
       input.dataset.parameter = p.name;
       label.htmlFor = input.id;
       var output = document.createElement("output");
@@ -220,6 +268,7 @@
         state.values[p.name] = value;
         update();
       });
+      if (request) row.appendChild(request);
       row.appendChild(label); row.appendChild(input); row.appendChild(output); row.appendChild(range);
       box.appendChild(row);
       state.sliders[p.name] = { input: input, output: output, parameter: p };
@@ -249,6 +298,45 @@
       requestFrame();
     }, { passive: false });
     window.addEventListener("resize", requestFrame);
+    byId("reset-view").addEventListener("click", function () { resetView(); requestFrame(); });
+  }
+
+  /* The camera that shows the shape's bounds over the whole parameter box: centred on them,
+     far enough that their bounding sphere fits the narrower field of view of the canvas. */
+  function resetView() {
+    var b = state.model.scene.view_bounds || state.model.scene.bounds, lo = b[0], hi = b[1];
+    var centre = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2];
+    var radius = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2 || 0.5;
+    var canvas = state.renderer.canvas, aspect = (canvas.clientWidth || 1) / (canvas.clientHeight || 1);
+    var half = Math.min(0.35, Math.atan(Math.tan(0.35) * aspect));  // the camera's vertical fov is 0.7
+    var distance = radius / Math.sin(half) * 1.08;
+    if (!state.camera) state.camera = new MiniGL.OrbitCamera(centre, distance);
+    state.camera.target = centre;
+    state.camera.distance = distance;
+    state.camera.yaw = -0.75;
+    state.camera.pitch = 0.35;
+  }
+
+  /* Where the drawn vertices land on the canvas: [min x, max x, min y, max y] in clip space
+     (the canvas spans -1..1 both ways). */
+  function screenExtent() {
+    var canvas = state.renderer.canvas, aspect = (canvas.clientWidth || 1) / (canvas.clientHeight || 1);
+    var m = state.camera.matrix(aspect), out = [Infinity, -Infinity, Infinity, -Infinity];
+    function visit(drawn, count) {
+      for (var s = 0; s < count; s++) {
+        var slot = drawn.slots[s], pos = drawn.positions;
+        for (var v = slot.first; v < slot.first + slot.count; v++) {
+          var x = pos[3 * v], y = pos[3 * v + 1], z = pos[3 * v + 2];
+          var w = m[3] * x + m[7] * y + m[11] * z + m[15];
+          var px = (m[0] * x + m[4] * y + m[8] * z + m[12]) / w, py = (m[1] * x + m[5] * y + m[9] * z + m[13]) / w;
+          out[0] = Math.min(out[0], px); out[1] = Math.max(out[1], px);
+          out[2] = Math.min(out[2], py); out[3] = Math.max(out[3], py);
+        }
+      }
+    }
+    visit(state.base, state.base.slots.length);
+    state.groups.forEach(function (g) { if (g.drawn) visit(g.drawn, g.shown); });
+    return out;
   }
 
   /* Sweep the first slider for `ms` milliseconds, one slider step and one frame per animation
@@ -327,6 +415,9 @@
         return id ? Object.assign({}, state.names[id]) : null;
       },
       drawNow: function () { state.renderer.draw(state.camera, state.hovered); },
+      broken: function () { return state.broken.map(function (b) { return Object.assign({}, b); }); },
+      screenExtent: screenExtent,
+      resetView: function () { resetView(); requestFrame(); },
       updates: function () { return state.updates; },
       frames: function () { return state.frames; },
       measureFps: measureFps
@@ -344,12 +435,9 @@
     byId("program").textContent = scene.program_text;
     var canvas = byId("view");
     state.renderer = new MiniGL.Renderer(canvas);
-    var lo = scene.bounds[0], hi = scene.bounds[1];
-    var centre = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2];
-    var diagonal = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) || 1;
-    state.camera = new MiniGL.OrbitCamera(centre, diagonal * 1.9);
+    resetView();
     buildScene();
-    buildSliders(model.parameters);
+    buildSliders(model.parameters, scene.sliders);
     installControls(canvas);
     update();
     window.parsel = hook();

@@ -1,0 +1,206 @@
+"""Several parameters at once: the joint parameter box, joint ranges, and adding a request.
+
+A program with several parameters (a proxydural model, a program grown with ``parsel
+edit --on``) must give a valid shape at every combination of its sliders, not only with
+one slider moving. Requests are solved one at a time on the rest shape and added as
+layers (:meth:`Program.plus`): every relation is linear in the corners and holds at
+rest, so the sum of displacements that each keep a relation keeps it too, exactly, over
+the whole box of ranges (docs/aep.md, "Several parameters"). What a sum does not inherit
+is non-degeneracy (two shrinking edits of one part may collapse it together), so a new
+layer's range is narrowed until no part degenerates anywhere in the box.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from parsel_core.errors import ParselError
+from parsel_core.graph import ShapeGraph
+from parsel_core.hexahedron import corner_jacobians
+from parsel_core.ops import GroupOp
+from parsel_core.program import Parameter, Program, evaluate
+
+#: Box corners are enumerated up to this many parameters (2**10 corners); beyond, random ones.
+MAX_CORNER_PARAMETERS = 10
+#: A hexahedron whose corner frames shrink below this fraction of their rest volume has collapsed
+#: (the AEP solver's automatic tau uses the same criterion).
+COLLAPSE = 0.05
+
+
+def box_corners(parameters: Sequence[Parameter], seed: int = 0) -> dict[str, np.ndarray]:
+    """The corners of the box of ranges: all 2**n of them, or 2**MAX_CORNER_PARAMETERS random ones."""
+    n = len(parameters)
+    if n == 0:
+        return {}
+    if n <= MAX_CORNER_PARAMETERS:
+        bits = np.array(list(itertools.product((0, 1), repeat=n)), dtype=bool)
+    else:
+        rng = np.random.default_rng(seed)
+        bits = rng.integers(0, 2, size=(2 ** MAX_CORNER_PARAMETERS, n)).astype(bool)
+    return {p.name: np.where(bits[:, i], p.hi, p.lo) for i, p in enumerate(parameters)}
+
+
+def joint_samples(program: Program, count: int, seed: int = 0) -> tuple[dict[str, np.ndarray], int]:
+    """Joint samples of every parameter and how many of them are box corners.
+
+    One parameter: ``count`` samples with both ends of its range. Several: every corner of
+    the box of ranges first, then ``count`` random points (each parameter drawn on its own
+    range, both ends among them), so combinations at the extremes are always checked."""
+    random = {p.name: p.samples(count, seed=seed + i) for i, p in enumerate(program.parameters)}
+    if len(program.parameters) < 2:
+        return random, 0
+    corners = box_corners(program.parameters, seed)
+    n = len(next(iter(corners.values())))
+    return {name: np.concatenate([corners[name], random[name]]) for name in random}, n
+
+
+def sample_at(values: Mapping[str, np.ndarray], index: int) -> dict[str, float]:
+    """The parameter values of one joint sample."""
+    return {name: float(np.asarray(v)[index]) for name, v in values.items()}
+
+
+def degenerate(rest: np.ndarray, edited: np.ndarray) -> np.ndarray:
+    """Which samples (...,) of an edited hexahedron are flipped or collapsed: the frame at a corner
+    turned inside out, or shrunk below COLLAPSE of its rest volume. Removed instances (NaN) are not."""
+    removed = np.isnan(edited).all(axis=(-1, -2))
+    with np.errstate(invalid="ignore", over="ignore"):
+        orientation = corner_jacobians(np.where(removed[..., None, None], rest, edited))
+        rest_orientation = corner_jacobians(rest)
+        flipped = np.any(~(orientation * np.sign(rest_orientation) > COLLAPSE * np.abs(rest_orientation)), axis=-1)
+    return flipped & ~removed
+
+
+def moved_parts(shape: ShapeGraph, program: Program) -> set[str]:
+    """Parts any part op moves (members of an edited virtual parent included)."""
+    moved = set()
+    for op in program.ops:
+        if op.acts_on != "part" or op.name == "keep_fixed":
+            continue
+        moved.add(op.operand)
+        if op.operand in shape.virtual_parents:
+            moved.update(shape.relations[op.operand].members)
+    return moved & set(shape.parts)
+
+
+def degenerate_parts(shape: ShapeGraph, program: Program, values: Mapping[str, np.ndarray]) -> list[str]:
+    """Parts that degenerate at some of the joint samples ``values``."""
+    corners = evaluate(program, shape, values).parts
+    rest = shape.rest_corners()
+    return sorted(pid for pid in moved_parts(shape, program) if np.any(degenerate(rest[pid], corners[pid])))
+
+
+def _box_check_values(program: Program, count: int = 64, seed: int = 0) -> dict[str, np.ndarray]:
+    values, _ = joint_samples(program, count, seed)
+    return values
+
+
+def _rest_value(parameter: Parameter) -> float:
+    return min(max(0.0, parameter.lo), parameter.hi)
+
+
+def narrowed(parameter: Parameter, factor: float) -> Parameter:
+    """The range scaled by ``factor`` about the parameter's rest value (0, or the end nearest it)."""
+    rest = _rest_value(parameter)
+    lo = math.ceil((rest + factor * (parameter.lo - rest)) * 1000) / 1000 if parameter.lo < rest else parameter.lo
+    hi = math.floor((rest + factor * (parameter.hi - rest)) * 1000) / 1000 if parameter.hi > rest else parameter.hi
+    lo, hi = min(lo, rest), max(hi, rest)
+    return Parameter(parameter.name, lo, hi, min(max(parameter.default, lo), hi))
+
+
+def fit_joint_range(shape: ShapeGraph, program: Program, name: str, steps: int = 12) -> Program:
+    """``program`` with parameter ``name``'s range narrowed (about its rest value) until no part
+    degenerates at any corner of the box of ranges or at random joint samples.
+
+    Each layer's range was chosen so that its edit alone keeps every part a proper box;
+    two edits that each shrink a part can collapse it when added, so the newest range gives way."""
+    if not degenerate_parts(shape, program, _box_check_values(program)):
+        return program
+    parameter = program.parameter(name)
+
+    def with_factor(factor: float) -> Program:
+        params = tuple(narrowed(p, factor) if p.name == name else p for p in program.parameters)
+        return Program(program.ops, params, dict(program.metadata), program.layers)
+
+    lo, hi = 0.0, 1.0
+    for _ in range(steps):
+        mid = (lo + hi) / 2
+        if degenerate_parts(shape, with_factor(mid), _box_check_values(with_factor(mid))):
+            hi = mid
+        else:
+            lo = mid
+    result = with_factor(lo)
+    narrow = result.parameter(name)
+    if lo == 0.0 or narrow.hi - narrow.lo <= 1e-3 * max(parameter.hi - parameter.lo, 1e-12) or \
+            degenerate_parts(shape, result, _box_check_values(result)):
+        bad = degenerate_parts(shape, program, _box_check_values(program))
+        raise ParselError(f"parameter {name!r} collapses {', '.join(bad[:3])} together with the other parameters "
+                          f"at once; no range of it keeps every part a proper box")
+    return result
+
+
+def fresh_name(program: Program, prefix: str = "x") -> str:
+    """A parameter name the program does not use: ``x<k>`` with k one past its parameter count."""
+    used = set(program.parameter_names)
+    k = len(program.parameters) + 1
+    while f"{prefix}{k}" in used:
+        k += 1
+    return f"{prefix}{k}"
+
+
+def requests_of(program: Program) -> list[dict[str, str]]:
+    """What each parameter of a program was asked for: ``metadata["requests"]`` of a stacked
+    program, or the request (or seed) of a single edit for each of its parameters."""
+    meta = program.metadata
+    listed = meta.get("requests")
+    if isinstance(listed, list):
+        return [{"request": str(item.get("request", "")), "parameter": str(item.get("parameter", ""))}
+                for item in listed if isinstance(item, Mapping)]
+    text = meta.get("request") or meta.get("seed")
+    if not isinstance(text, str) or not text:
+        return []
+    return [{"request": text, "parameter": p.name} for p in program.parameters]
+
+
+def check_layouts(base: Program | None, layer: Program, request: str) -> None:
+    """Refuse a layer that lays out a group in the other mode than an earlier layer: a top-down
+    layout spreads the instances over the parent's span, a bottom-up one extends the row by its
+    step, and one row cannot follow both."""
+    if base is None:
+        return
+    modes = {op.operand: op.mode for op in base.ops if isinstance(op, GroupOp)}
+    for op in layer.ops:
+        if isinstance(op, GroupOp) and modes.get(op.operand, op.mode) != op.mode:
+            raise ParselError(f"request {request!r} lays out group {op.operand!r} {op.mode.replace('_', '-')} where "
+                              f"an earlier request lays it out {modes[op.operand].replace('_', '-')}; one row cannot "
+                              f"follow both")
+
+
+def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: str,
+              name: str | None = None) -> tuple[Program, str]:
+    """``layer`` (one request's program, solved on the rest shape) added to ``base`` as a new
+    layer with its own parameter, the range narrowed where the sum would collapse a part.
+
+    Returns the program and the new parameter's name. The metadata's ``requests`` list which
+    request each parameter came from (the slider page labels its sliders with them)."""
+    if len(layer.parameters) != 1:
+        raise ParselError(f"a request's program adds one slider; this one has {len(layer.parameters)} parameters")
+    check_layouts(base, layer, request)
+    base_requests = requests_of(base) if base is not None else []
+    if base is None or not base.ops:
+        name = name or "x1"
+        program = layer.renamed(layer.parameters[0].name, name)
+    else:
+        name = name or fresh_name(base)
+        if name in base.parameter_names:
+            raise ParselError(f"parameter {name!r} is already one of the program's ({', '.join(base.parameter_names)})")
+        program = base.plus(layer.renamed(layer.parameters[0].name, name))
+        program = fit_joint_range(shape, program, name)
+    meta: dict[str, Any] = {key: value for key, value in dict(base.metadata if base is not None else {}).items()
+                            if key not in ("request", "seed", "requests")}
+    meta.update({"shape": shape.name, "requests": base_requests + [{"request": request, "parameter": name}]})
+    return Program(program.ops, program.parameters, meta, program.layers), name

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.drawing import PICTURE_FORMATS
+from parsel_core.drawing import PICTURE_FORMATS, PLOT_AXES, set_camera
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
@@ -184,19 +184,11 @@ def _draw_frame(ax, geometry: FrameGeometry, colours: Mapping[str, tuple], view:
     """One frame on a 3D axis; ``view`` (centre, radius) is shared by all frames so motion shows."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    mid, radius = view
     rgba = np.array([colours.get(label, (0.6, 0.6, 0.6, 1.0)) for label in geometry.labels]).reshape(-1, 4)
-    drawn = geometry.triangles[..., [0, 2, 1]]  # y up: plot (x, z, y)
+    drawn = geometry.triangles[..., PLOT_AXES]
     ax.add_collection3d(Poly3DCollection(drawn, facecolors=_shaded(rgba, geometry.triangles), edgecolors="none",
                                          linewidths=0))
-    ax.set_xlim(mid[0] - radius, mid[0] + radius)
-    ax.set_ylim(mid[2] - radius, mid[2] + radius)
-    ax.set_zlim(mid[1] - radius, mid[1] + radius)
-    ax.set_box_aspect((1, 1, 1), zoom=zoom)
-    ax.view_init(elev=18, azim=-60)
-    ax.set_axis_off()
-    if title:
-        ax.set_title(title, fontsize=9)
+    set_camera(ax, *view, zoom=zoom, elev=18, title=title)
 
 
 def _figure_rgb(figure) -> np.ndarray:

@@ -12,6 +12,7 @@ matplotlib already depends on; no external binary).
 from __future__ import annotations
 
 import io
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +25,8 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
 from parsel_core.io import atomic_write_bytes
-from parsel_core.program import Evaluation, Program, evaluate
+from parsel_core.program import Evaluation, Program, evaluator
+from parsel_core.verbosity import logger
 
 MAX_FRAMES = 24
 #: What ``parsel render`` writes, by suffix: the strip's picture formats and the animation.
@@ -104,11 +106,14 @@ FRAME_ZOOM = 1.45
 
 def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames: int = 5,
                    parameter: str | None = None, values: Mapping[str, float] | None = None, remesh: bool = False,
-                   remesh_options: Mapping[str, Any] | None = None, dpi: int = 110) -> Path:
+                   remesh_options: Mapping[str, Any] | None = None, dpi: int = 110, backend: str | None = None,
+                   progress: bool = True) -> Path:
     """Draw ``frames`` views of ``shape`` edited by ``program``, ``parameter`` swept over its range.
 
     Other parameters take ``values`` or their defaults. The picture is written atomically;
-    its format comes from the suffix (``.png``, ``.svg``, ``.pdf``).
+    its format comes from the suffix (``.png``, ``.svg``, ``.pdf``). ``backend`` evaluates
+    through that CAS backend instead of the numpy reference; ``progress`` allows a display
+    on stderr (shown only with ``remesh``, which takes seconds per frame).
     """
     path = Path(path)
     fmt = filmstrip_format(path)
@@ -124,13 +129,17 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     fixed = program.values(values)
     swept = program.parameter(parameter) if parameter else program.parameters[0]
     xs = np.linspace(swept.lo, swept.hi, frames) if frames > 1 else np.array([fixed[swept.name]])
-    from parsel_core.progress import progress
+    from parsel_core.progress import progress as progress_display
 
-    bar = progress(len(xs), "frames", enabled=remesh)  # remeshing takes seconds per frame
+    bar = progress_display(len(xs), "frames", enabled=remesh and progress)  # remeshing: seconds per frame
+    evaluate = evaluator(program, shape, backend)
     geometries = []
     for x in xs:
-        geometries.append(frame_geometry(shape, evaluate(program, shape, {**fixed, swept.name: float(x)}), remesh,
-                                         remesh_options))
+        started = time.perf_counter()
+        geometries.append(frame_geometry(shape, evaluate({**fixed, swept.name: float(x)}), remesh, remesh_options))
+        logger.debug(f"frame {swept.name} = {x:.4g}: {len(geometries[-1].triangles)} triangles in "
+                     f"{time.perf_counter() - started:.3f} s ({backend or 'numpy reference'} evaluation"
+                     f"{', remeshed' if remesh else ''})")
         bar.update(1)
     bar.close()
 

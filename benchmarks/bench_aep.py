@@ -31,22 +31,12 @@ from parsel_core.program import Program, compile_program
 from parsel_core.report import check_program
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from designer_seeds import designer_seeds  # noqa: E402
+from designer_seeds import designer_seeds, sample_programs  # noqa: E402
 
 from parsel_aep.candidates import candidate_family  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CATEGORIES = ("chair", "table", "storage")
-
-
-def sample_programs(data: Path, count: int, seed: int = 0) -> list[Path]:
-    rng = np.random.default_rng(seed)
-    per = [count // 3 + (1 if i < count % 3 else 0) for i in range(3)]
-    out = []
-    for category, n in zip(CATEGORIES, per):
-        ids = (data / "splits" / category / "val.txt").read_text().split()
-        out += [data / category / f"{i}.txt" for i in rng.choice(ids, size=min(n, len(ids)), replace=False)]
-    return out
 
 
 def seeds_for(shape) -> list[str]:

@@ -1,8 +1,8 @@
 """Round trip of edited shapes through ShapeAssembly: export, execute, compare corners.
 
 For a fixed sample of val-split programs (default 200, spread over chair, table and
-storage) the script makes a designer seed edit (``seed_rules.py``: widen the
-seat/top/body about its centre, or lengthen the legs from their bottom), completes it
+storage) the script makes a designer seed edit (``designer_seeds.py``, alternately:
+widen the seat/top about its centre, or lengthen the legs from their bottom), completes it
 with AEP, evaluates the program at x = 0.5 (or the top of its range when that is
 lower), writes the edited shape as a ShapeAssembly program, executes the written
 program with parsel's interpreter and compares every cuboid's corners with the edited
@@ -29,7 +29,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from seed_rules import designer_seed, sample_programs  # noqa: E402
+from designer_seeds import designer_seeds, sample_programs, seed_of  # noqa: E402
 
 from parsel_core.interfaces import SolveRequest  # noqa: E402
 from parsel_core.loading import load_shape  # noqa: E402
@@ -64,7 +64,8 @@ def main() -> None:
         path = queue.pop(0)
         i += 1
         shape = load_shape(str(path))
-        seed = designer_seed(shape, i - 1)
+        # alternate the two edits over the sample so both are measured (no legs: widen)
+        seed = seed_of(designer_seeds(shape), *(("widen-",) if i % 2 else ("lengthen-legs", "widen-"))).seed
         try:
             program = aep.run(SolveRequest(shape, Program.from_text(seed))).program
         except Exception as exc:  # recorded, not fatal: a benchmark reports failures

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from parsel_core import hookimpl
 from parsel_core.errors import ParselError
+from parsel_core.verbosity import log_solver_stats, logger
 
 if TYPE_CHECKING:  # importing this module stays cheap (the CLI imports it to build its parser)
     from parsel_core.graph import ShapeGraph
@@ -239,6 +240,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
     timings["check_s"] = time.perf_counter() - started
     report.extra.update({"shape": graph.name, "solver": metadata["solver"], "rejected": rejected,
                          "stats": {**stats, "load_s": timings["load_s"]}})
+    log_solver_stats(stats, timings, rejected, metadata["solver"])
     if inference is not None:
         report.extra["language"] = inference.summary()
     return EditResult(graph, program, report, list(inference.record) if inference else [],
@@ -284,11 +286,13 @@ def _on_base(graph: ShapeGraph, base: Program, program: Program, metadata: Mappi
     return type(combined)(combined.ops, combined.parameters, meta, combined.layers), all_breaks
 
 
-def check(shape: ShapeLike, program: ProgramLike, breaks: Iterable[str] = (), samples: int = 50) -> RelationReport:
-    """The relation report of any program on a shape over its parameter range (``parsel check``)."""
+def check(shape: ShapeLike, program: ProgramLike, breaks: Iterable[str] = (), samples: int = 50,
+          backend: str | None = None) -> RelationReport:
+    """The relation report of any program on a shape over its parameter range (``parsel check``);
+    ``backend`` evaluates through that CAS backend instead of the numpy reference."""
     from parsel_core.report import check_program
 
-    return check_program(as_shape(shape), as_program(program), tuple(breaks), samples=samples)
+    return check_program(as_shape(shape), as_program(program), tuple(breaks), samples=samples, backend=backend)
 
 
 def apply(shape: ShapeLike, program: ProgramLike, values: Mapping[str, float] | None = None) -> Evaluation:
@@ -301,17 +305,18 @@ def apply(shape: ShapeLike, program: ProgramLike, values: Mapping[str, float] | 
 
 
 def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Mapping[str, float] | None = None,
-           sweep: int | None = None, progress: bool = False) -> list[Path]:
+           sweep: int | None = None, progress: bool = False, backend: str | None = None) -> list[Path]:
     """Write the edited shape with the exporter the suffix of ``path`` picks (``parsel apply``).
 
     With ``sweep=N``, N files ``stem_000.ext`` ... across the first parameter's range,
-    all written or none (``progress``: a display on stderr). Returns the paths written.
+    all written or none (``progress``: a display on stderr). ``backend`` evaluates through
+    that CAS backend instead of the numpy reference. Returns the paths written.
     """
     import numpy as np
 
     from parsel_core.io import write_all
     from parsel_core.plugins import exporter_for
-    from parsel_core.program import Program, evaluate
+    from parsel_core.program import Program, evaluator
 
     where = "" if isinstance(program, Program) else f"{program}: "
     graph, program = as_shape(shape), as_program(program)
@@ -319,8 +324,13 @@ def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Map
     values = program.values(values)
     output = Path(path)
     exporter = exporter_for(graph, output)
+    evaluate = evaluator(program, graph, backend)
+    logger.debug(f"exporter {getattr(exporter, 'name', type(exporter).__name__)}, evaluated with "
+                 f"{backend or 'the numpy reference'}")
     if sweep is None:
-        exporter.export(graph, evaluate(program, graph, values), output)
+        started = time.perf_counter()
+        exporter.export(graph, evaluate(values), output)
+        logger.debug(f"{output}: {time.perf_counter() - started:.3f} s")
         return [output]
     if sweep < 2:
         raise ParselError("--sweep needs at least 2 steps")
@@ -334,7 +344,9 @@ def export(shape: ShapeLike, program: ProgramLike, path: str | Path, values: Map
     bar = _progress(sweep, "files", progress)  # watertight exporters take seconds per file
 
     def write(i: int, target: Path) -> None:
-        exporter.export(graph, evaluate(program, graph, {**values, parameter.name: float(xs[i])}), target)
+        started = time.perf_counter()
+        exporter.export(graph, evaluate({**values, parameter.name: float(xs[i])}), target)
+        logger.debug(f"{target}: {time.perf_counter() - started:.3f} s")
         bar.update(1)
 
     write_all(paths, write)
@@ -359,6 +371,7 @@ def solve_request(shape: ShapeGraph, text: str, records: list[dict[str, Any]], *
     solver = get_named("solver", solvers(), "aep")
     result = solver.run(SolveRequest(shape, inference.seed, inference.hints, tuple(inference.breaks),
                                      {"backend": backend}))
+    log_solver_stats(result.stats, None, result.rejected, f"{solver.name} ({text})")
     return result.program, list(result.rejected), list(inference.breaks)
 
 

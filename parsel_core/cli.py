@@ -12,7 +12,8 @@ from parsel_core import __version__
 from parsel_core.config import check_limit
 from parsel_core.errors import ParselError
 from parsel_core.io import write_all  # noqa: F401 - write_all: the commands' old home
-from parsel_core.outputs import check_output_dir, write_outdir
+from parsel_core.outputs import check_output_dir, to_stdout, write_outdir, write_single
+from parsel_core.verbosity import add_verbosity_options, level_of, logger, shows_progress, verbosity
 
 
 def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], int]:
@@ -30,9 +31,14 @@ def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], 
     return parse
 
 
-def _add_backend(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--backend", metavar="NAME",
-                        help="CAS backend (default: $PARSEL_CAS_BACKEND, parsel.toml, else the fastest installed)")
+#: ``--backend`` on verbs that only evaluate programs (check, apply, render): numpy unless named.
+EVALUATE_BACKEND_HELP = ("evaluate the program compiled by this CAS backend (sympy, symengine, ...) instead of "
+                         "the numpy reference evaluation")
+
+
+def _add_backend(parser: argparse.ArgumentParser, help: str | None = None) -> None:
+    parser.add_argument("--backend", metavar="NAME", help=help or "CAS backend (default: $PARSEL_CAS_BACKEND, "
+                        "parsel.toml, else the fastest installed)")
 
 
 def _add_force(parser: argparse.ArgumentParser) -> None:
@@ -282,7 +288,11 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from parsel_core.language import InferenceError
     from parsel_core.language.inference_io import keep_failed_record
 
-    check_output_dir(args.output, args.force)
+    stdout = to_stdout(args.output)
+    if stdout and args.json:
+        raise ParselError("-o - prints the program itself; --json prints a summary of a written OUTDIR: use one")
+    if not stdout:
+        check_output_dir(args.output, args.force)
     check_tau(args.tau)
     options = {"tau": args.tau} if args.tau is not None else {}
     try:
@@ -294,9 +304,15 @@ def cmd_edit(args: argparse.Namespace) -> int:
     except InferenceError as exc:
         # The record of what was asked and answered is the useful output of a failed inference;
         # a previous OUTDIR is never replaced by it.
+        if stdout:
+            raise
         raise keep_failed_record(exc, args.output, api.records_jsonl(exc.record)) from None
-    write_outdir(args.output, result.files(), args.force)
     program, report = result.program, result.report
+    if stdout:  # the program on stdout, for pipes; the summary is a note on stderr
+        write_single(None, program.to_json())
+    else:
+        write_outdir(args.output, result.files(), args.force)
+    say = logger.info if stdout else print
     counts = report.counts()
     if args.json:
         print(json.dumps({"output": args.output, "files": sorted(result.files()), "ops": len(program.ops),
@@ -307,11 +323,12 @@ def cmd_edit(args: argparse.Namespace) -> int:
         return 0
     ranges = ", ".join(f"{p.name} in [{p.lo:g}, {p.hi:g}]" for p in program.parameters)
     joint = f" at {report.samples} joint samples ({report.box_corners} box corners)" if report.box_corners else ""
-    print(f"{len(program.ops)} ops, {ranges}; relations{joint}: {counts['kept']} kept, "
-          f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> {args.output}")
+    say(f"{len(program.ops)} ops, {ranges}; relations{joint}: {counts['kept']} kept, "
+        f"{counts['broken_on_purpose']} broken on purpose, {counts['broken']} broken -> "
+        f"{'stdout' if stdout else args.output}")
     for state in report.relations:
         if state.state == "broken":
-            print(f"  broken: {state.id} ({state.kind}: {', '.join(state.members)})")
+            say(f"  broken: {state.id} ({state.kind}: {', '.join(state.members)})")
     return 0
 
 
@@ -320,7 +337,7 @@ def cmd_proxydural(args: argparse.Namespace) -> int:
     from parsel_core import api
 
     check_output_dir(args.output, args.force)
-    result = api.proxydural(args.shape, args.count, progress=not args.quiet, **_language_options(args))
+    result = api.proxydural(args.shape, args.count, progress=shows_progress(), **_language_options(args))
     write_outdir(args.output, result.files(), args.force)
     counts = result.report.counts()
     if args.json:
@@ -345,7 +362,7 @@ def cmd_variations(args: argparse.Namespace) -> int:
     from parsel_core import api
 
     check_output_dir(args.output, args.force)
-    result = api.variations(args.shape, args.request, args.count, progress=not args.quiet,
+    result = api.variations(args.shape, args.request, args.count, progress=shows_progress(),
                             **_language_options(args))
     files = result.files()
     write_outdir(args.output, files, args.force)
@@ -366,7 +383,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from parsel_core import api
 
     shape = api.as_shape(args.shape)
-    report = api.check(shape, args.program, args.break_ or (), samples=args.samples)
+    report = api.check(shape, args.program, args.break_ or (), samples=args.samples, backend=args.backend)
     counts = report.counts()
     status = 1 if args.strict and counts["broken"] else 0  # --strict: broken relations fail CI
     if args.json:
@@ -387,11 +404,20 @@ def cmd_apply(args: argparse.Namespace) -> int:
     """Evaluate a program at parameter values and export the edited shape."""
     from parsel_core import api
     from parsel_core.loading import parse_assignments
+    from parsel_core.outputs import stdout_suffix, written_by
+    from parsel_core.plugins import exporters
 
     if args.sweep is not None:
         check_limit("max_sweep", "--sweep", args.sweep)
-    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), sweep=args.sweep,
-                       progress=not args.quiet)
+    options = {"sweep": args.sweep, "progress": shows_progress(), "backend": args.backend}
+    suffix = stdout_suffix("-o", args.output, args.format, {x for e in exporters().values() for x in e.extensions})
+    if to_stdout(args.output):
+        if args.sweep is not None or args.json:
+            raise ParselError("-o - writes one file to stdout: --sweep and --json need a file name")
+        write_single(None, written_by(suffix, lambda path: api.export(
+            args.shape, args.program, path, parse_assignments(args.set), **options)))
+        return 0
+    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), **options)
     if args.json:
         print(json.dumps({"written": [str(p) for p in paths], "values": parse_assignments(args.set)}, indent=1))
         return 0
@@ -485,10 +511,13 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
     p.add_argument("--on", metavar="PROGRAM", help="grow this program (program.json of an earlier edit or "
                    "proxydural, or its OUTDIR): the request becomes one more parameter, checked jointly")
-    p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="writes program.json and report.json")
+    p.add_argument("-o", "--output", metavar="OUTDIR", help="writes program.json and report.json; - (or no -o): "
+                   "print program.json on stdout instead, the summary on stderr")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
     _add_force(p)
     _add_backend(p)
+    add_verbosity_options(p, verbose_help="also print the solver's statistics, its time per stage and why each "
+                          "lost relation was lost, on stderr")
     p.set_defaults(func=cmd_edit)
 
     for name, func, text in (("proxydural", cmd_proxydural, "N requests for a shape, stacked into one program with "
@@ -511,9 +540,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                        help="samples per prompt for majority voting (default 5)")
         p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
         p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
-        p.add_argument("--quiet", action="store_true", help="no progress on stderr")
         _add_force(p)
         _add_backend(p)
+        add_verbosity_options(p, verbose_help="also print each request's solver statistics and lost relations "
+                              "on stderr")
         p.set_defaults(func=func)
 
     p = sub.add_parser("check", help="the relation report of a program on a shape")
@@ -527,6 +557,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--samples", dest="samples", type=bounded_int("--samples", 2, 100_000), help=argparse.SUPPRESS)
     p.add_argument("--strict", action="store_true", help="exit with status 1 when a relation is broken")
     p.add_argument("--json", action="store_true", help="the report as JSON (schema: docs/formats.md)")
+    _add_backend(p, EVALUATE_BACKEND_HELP)
+    add_verbosity_options(p, verbose_help="also print how the program was evaluated and how long it took")
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("apply", help="export the edited shape at parameter values")
@@ -535,9 +567,12 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter value (repeatable; default: "
                    "the parameter's default)")
     p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
-    p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter")
+    p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter; - for stdout "
+                   "(with --format)")
+    p.add_argument("--format", metavar="EXT", help="the exporter's format for -o - (glb, obj, ply, sa.txt, ...)")
     p.add_argument("--json", action="store_true", help="print the written paths as JSON")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr (with --sweep)")
+    _add_backend(p, EVALUATE_BACKEND_HELP)
+    add_verbosity_options(p, verbose_help="also print each file's exporter and time on stderr")
     p.set_defaults(func=cmd_apply)
 
     p = sub.add_parser("inspect", help="list a shape's parts and relations")
@@ -600,7 +635,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help()
             return 0
-        return int(args.func(args) or 0)
+        with verbosity(level_of(args)):
+            return int(args.func(args) or 0)
     except ParselError as exc:
         print(f"parsel: error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -31,21 +31,27 @@ VERBS: dict[str, tuple[str, list[str]]] = {
              "replies).",
              ['parsel edit chair "make the chair wider" -o out/',
               'parsel edit chair "make the legs longer" --provider litellm --model gpt-4o -o out/',
-              "parsel edit chair --seed \"scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\" -o out/"]),
+              "parsel edit chair --seed \"scale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x)\" -o out/",
+              'parsel edit chair "make the chair wider" -o - --quiet | jq .ops',
+              'parsel edit chair "make the legs longer" -o out/ --verbose']),
     "proxydural": ("Proxydural modelling (paper 8.1): ask for N edit requests that suit the shape, turn each "
                    "into a program and stack them into one program with one slider per request.",
-                   ["parsel proxydural chair -n 4 -o proxy/", "parsel view proxy/"]),
+                   ["parsel proxydural chair -n 4 -o proxy/", "parsel view proxy/",
+                    "parsel proxydural chair -n 2 -o proxy/ --verbose"]),
     "variations": ("Shape variation families (paper 8.2): variants of one request with different secondary "
                    "effects, one program each (OUTDIR/variation_NN.program.json).",
-                   ['parsel variations chair "make the chair wider" -n 3 -o family/']),
+                   ['parsel variations chair "make the chair wider" -n 3 -o family/',
+                    'parsel variations chair "make the chair wider" -o family/ --quiet']),
     "check": ("Recompute the relation report of any program on a shape: each relation kept, broken on "
               "purpose or broken over the parameter range. Exit status 1 with --strict when a relation "
               "is broken.",
-              ["parsel check chair out/program.json", "parsel check chair out/program.json --strict --json"]),
+              ["parsel check chair out/program.json", "parsel check chair out/program.json --strict --json",
+               "parsel check chair out/program.json --backend sympy --verbose"]),
     "apply": ("Evaluate a program at parameter values and export the edited shape; the output suffix "
               "picks the exporter (.glb, .obj, .ply, .hex.json, .watertight.obj ...).",
               ["parsel apply chair out/program.json --set x=0.3 -o edited.glb",
-               "parsel apply chair out/program.json --sweep 5 -o frames.obj"]),
+               "parsel apply chair out/program.json --sweep 5 -o frames.obj --quiet",
+               "parsel apply chair out/program.json --set x=0.3 -o - --format obj --backend symengine | head"]),
     "inspect": ("List a shape's parts (label, size, centre) and its relations, as detected or declared.",
                 ["parsel inspect chair", "parsel inspect chair.glb --json", "parsel inspect chair --png chair.png"]),
     "new-plugin": ("Write a plugin package to start from: an edit operator named NAME, its entry point, a "
@@ -60,21 +66,26 @@ VERBS: dict[str, tuple[str, list[str]]] = {
 PLUGIN_VERBS: dict[str, tuple[str, list[str]]] = {
     "view": ("Show a program on a page with one slider per parameter, served on 127.0.0.1 or written as "
              "one self-contained HTML file with --html. Several OUTDIRs are stacked.",
-             ["parsel view out/", "parsel view out/ --html page.html", "parsel view a/ b/ --shape chair"]),
+             ["parsel view out/", "parsel view out/ --html page.html", "parsel view a/ b/ --shape chair",
+              "parsel view out/ --html - | gzip"]),
     "render": ("Draw a filmstrip of the edited shape across a parameter's range (.png, .svg or .pdf), or "
                "an animation of it (.gif).",
                ["parsel render chair out/program.json -o strip.png",
                 "parsel render chair out/ -o strip.png --frames 7 --remesh",
-                "parsel render chair out/program.json -o strip.gif"]),
+                "parsel render chair out/program.json -o strip.gif",
+                "parsel render chair out/program.json -o - --format png --backend sympy --quiet | display"]),
     "fit": ("Find the parameter values that bring the edited shape closest to a target (a mesh, a point "
             "cloud or another shape of the same parts) by Chamfer distance, and write the program with "
             "them as defaults (docs/fitting.md).",
             ["parsel fit chair out/program.json scan.ply -o fitted.json",
-             "parsel fit chair out/program.json target.shape.json -o fitted.json --starts 8 --points 4096"]),
+             "parsel fit chair out/program.json target.shape.json -o fitted.json --starts 8 --points 4096",
+             "parsel fit chair out/program.json scan.ply -o - --verbose | jq .metadata.fit"]),
     "eval": ("Score programs against ground truth for the cases of CASES.jsonl (docs/evaluation.md).",
-             ["parsel eval cases.jsonl", "parsel eval cases.jsonl --json --workers 2"]),
+             ["parsel eval cases.jsonl", "parsel eval cases.jsonl --json --workers 2",
+              "parsel eval cases.jsonl --verbose"]),
     "batch": ("Run many cases resumably on local processes or a Dask cluster (docs/evaluation.md).",
-              ["parsel batch cases.jsonl -o results/", "parsel batch cases.jsonl -o results/ --dask tcp://host:8786"]),
+              ["parsel batch cases.jsonl -o results/", "parsel batch cases.jsonl -o results/ --dask tcp://host:8786",
+               "parsel batch cases.jsonl -o results/ --quiet"]),
 }
 
 

@@ -28,6 +28,9 @@ RELATION_MARKS = {
     "rotation": ("tab:brown", "D", ":", "rotation group"),
 }
 
+#: World axes (x, y up, z front) in the order a matplotlib 3D plot takes them, so y is drawn upwards.
+PLOT_AXES = [0, 2, 1]
+
 # The 12 edges of a hexahedron in canonical corner order: corners differing in one bit.
 HEX_EDGES = tuple((k, k ^ bit) for k in range(8) for bit in (4, 2, 1) if k < k ^ bit)
 
@@ -55,9 +58,9 @@ def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None =
     corners = shape.rest_corners() if corners is None else corners
     colours = label_colours(p.label for p in shape.parts.values())
 
-    def view(points):  # world (x, y up, z front) -> plot (x, z, y) so y points up
+    def view(points):  # world -> plot coordinates, one array per plot axis
         points = np.asarray(points)
-        return points[..., 0], points[..., 2], points[..., 1]
+        return tuple(points[..., axis] for axis in PLOT_AXES)
 
     for pid, part in shape.parts.items():
         c = np.asarray(corners[pid])
@@ -81,12 +84,19 @@ def draw_shape(ax, shape: ShapeGraph, corners: Mapping[str, np.ndarray] | None =
                     ax.scatter(*view(centres), color=colour, s=10, marker="D", depthshade=False)
     everything = np.concatenate([np.asarray(corners[p]) for p in shape.parts])
     lo, hi = everything.min(axis=0), everything.max(axis=0)
-    mid, radius = (lo + hi) / 2, (hi - lo).max() / 2 or 1.0
-    ax.set_xlim(mid[0] - radius, mid[0] + radius)
-    ax.set_ylim(mid[2] - radius, mid[2] + radius)
-    ax.set_zlim(mid[1] - radius, mid[1] + radius)
+    set_camera(ax, (lo + hi) / 2, float((hi - lo).max()) / 2 or 1.0, zoom=zoom, title=title)
+
+
+def set_camera(ax, mid: np.ndarray, radius: float, *, zoom: float = 1.0, elev: float = 20.0,
+               title: str | None = None) -> None:
+    """The one camera of parsel's pictures (``inspect --png``, filmstrips, GIFs): a cube of
+    half-width ``radius`` about the world point ``mid``, y up, seen from the front left, no
+    axes, so that shapes drawn by different commands look alike and frames of one strip
+    share a scale."""
+    for set_lim, axis in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), PLOT_AXES):
+        set_lim(mid[axis] - radius, mid[axis] + radius)
     ax.set_box_aspect((1, 1, 1), zoom=zoom)
-    ax.view_init(elev=20, azim=-60)
+    ax.view_init(elev=elev, azim=-60)
     ax.set_axis_off()
     if title:
         ax.set_title(title, fontsize=9)

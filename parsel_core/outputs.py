@@ -20,8 +20,11 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from parsel_core.errors import ParselError
 
@@ -194,3 +197,60 @@ def _write_into_existing(outdir: str, target: Path, files: dict[str, str]) -> No
         stale = target / name
         if stale.is_file() and not stale.is_symlink():
             stale.unlink(missing_ok=True)
+
+
+# -- single files and standard output ------------------------------------------------------
+
+#: ``-o -``: the output goes to standard output instead of a file.
+STDOUT = "-"
+
+
+def to_stdout(output: str | Path | None) -> bool:
+    """Whether a single-file ``-o`` means standard output (``-o -``, or no ``-o`` where that is allowed)."""
+    return output is None or str(output) == STDOUT
+
+
+def stdout_suffix(option: str, output: str | Path | None, fmt: str | None, known: Iterable[str]) -> str | None:
+    """The file suffix that picks the format: ``--format`` with ``-o -``, else the output's own.
+
+    Writing to standard output leaves no suffix to read, so ``--format`` names it; a
+    ``--format`` that disagrees with a file's suffix is refused rather than guessed at.
+    """
+    known = sorted(known)
+    if fmt is not None:
+        suffix = "." + fmt.lower().lstrip(".")
+        if suffix not in known:
+            raise ParselError(f"--format {fmt!r}: unknown format (known: {', '.join(s[1:] for s in known)})")
+        if not to_stdout(output) and not str(output).lower().endswith(suffix):
+            raise ParselError(f"{option} {output}: --format {fmt} is for {option} - (standard output); "
+                              "a file's suffix names its format")
+        return suffix
+    if to_stdout(output):
+        raise ParselError(f"{option} -: name the format with --format (one of {', '.join(s[1:] for s in known)})")
+    return None
+
+
+def write_single(output: str | Path | None, data: str | bytes) -> None:
+    """One output file written atomically, or ``data`` on standard output for ``-o -``."""
+    if to_stdout(output):
+        stream = sys.stdout
+        if isinstance(data, bytes):
+            stream.flush()
+            stream.buffer.write(data)
+            stream.buffer.flush()
+        else:
+            stream.write(data)
+            stream.flush()
+        return
+    from parsel_core.io import atomic_write_bytes
+
+    atomic_write_bytes(output, data.encode("utf-8") if isinstance(data, str) else data)
+
+
+def written_by(suffix: str, write: Callable[[Path], Any]) -> bytes:
+    """The bytes ``write(path)`` puts in a file ending in ``suffix``, for writers that only take
+    paths (exporters, matplotlib) when the output is standard output; the scratch file is removed."""
+    with tempfile.TemporaryDirectory(prefix="parsel-stdout-") as scratch:
+        path = Path(scratch) / f"output{suffix}"
+        write(path)
+        return path.read_bytes()

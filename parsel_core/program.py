@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
@@ -555,3 +555,15 @@ def compile_program(program: Program, shape: ShapeGraph, backend: CASBackend) ->
     """Validate and lambdify ``program`` for ``shape`` with ``backend``."""
     program.validate(shape)
     return CompiledProgram(program, shape, backend)
+
+
+def evaluator(program: Program, shape: ShapeGraph, backend: str | None = None
+              ) -> Callable[[Mapping[str, Any] | None], Evaluation]:
+    """The numeric evaluation of ``program`` on ``shape``: the numpy reference (:func:`evaluate`)
+    without ``backend``, else the program compiled by that CAS backend (the slider page's
+    path), so that ``check``, ``apply`` and ``render`` can show what a backend computes."""
+    if backend is None:
+        return lambda values=None: evaluate(program, shape, values)
+    from parsel_core.plugins import get_cas_backend
+
+    return compile_program(program, shape, get_cas_backend(backend))

@@ -10,6 +10,7 @@ relation's report names the sample where its error is largest.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,8 +22,9 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import CORNER_BITS
 from parsel_core.joint import joint_samples, sample_at
-from parsel_core.program import Program, evaluate, laid_out_groups
+from parsel_core.program import Program, evaluate, evaluator, laid_out_groups
 from parsel_core.relations import Attachment, Relation
+from parsel_core.verbosity import logger
 
 #: Default constraint tolerance as a fraction of the shape's size.
 RELATIVE_TOLERANCE = 1e-4
@@ -161,8 +163,10 @@ def sliding_members(shape: ShapeGraph, program: Program) -> set[str]:
 
 
 def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (),
-                  samples: int = DEFAULT_SAMPLES, tolerance: float | None = None) -> RelationReport:
-    """The relation report of ``program`` on ``shape`` (``parsel check``)."""
+                  samples: int = DEFAULT_SAMPLES, tolerance: float | None = None,
+                  backend: str | None = None) -> RelationReport:
+    """The relation report of ``program`` on ``shape`` (``parsel check``); ``backend`` evaluates
+    through that CAS backend's compiled program instead of the numpy reference."""
     from parsel_core.config import check_limit
 
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
@@ -173,7 +177,10 @@ def check_program(shape: ShapeGraph, program: Program, breaks: Iterable[str] = (
         shape.relation(rid)
     tolerance = tolerance_for(shape) if tolerance is None else tolerance
     values, box = joint_samples(program, samples)
-    corners = evaluate(program, shape, values).parts
+    started = time.perf_counter()
+    corners = evaluator(program, shape, backend)(values).parts
+    logger.debug(f"evaluated {len(program.ops)} ops at {samples} parameter values with "
+                 f"{backend or 'the numpy reference'} in {time.perf_counter() - started:.3f} s")
     sliding = sliding_members(shape, program)
     joint = len(program.parameters) > 1
     states = []

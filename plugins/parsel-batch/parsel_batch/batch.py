@@ -401,6 +401,20 @@ def progress_bar(total: int, enabled: bool, stream: TextIO | None = None) -> Any
     return progress(total, "cases", unit="case", enabled=enabled, stream=stream)
 
 
+def log_outcome(outcome: CaseOutcome) -> None:
+    """``--verbose``: one line per finished case (status, ops, time, the error's first line)."""
+    from parsel_core.verbosity import VERBOSE, logger
+
+    if not logger.isEnabledFor(VERBOSE):
+        return
+    record = outcome.record
+    elapsed = record.get("elapsed_s")
+    error = record.get("error") or {}
+    logger.debug(f"case {record.get('id')}: {record.get('status')}, {record.get('ops', '-')} ops"
+                 + (f", {elapsed:.2f} s" if isinstance(elapsed, (int, float)) else "")
+                 + (f"; {error.get('type')}: {error.get('message')}" if error else ""))
+
+
 # -- the batch ----------------------------------------------------------------------------
 
 
@@ -442,6 +456,7 @@ def run_batch(cases: Sequence[Case], outdir: str | Path, *, workers: int = 0, da
     try:
         for outcome in run_cases(todo, defaults, workers, dask):
             out.commit(outcome)
+            log_outcome(outcome)
             failed_now += not outcome.ok
             if on_outcome is not None:
                 on_outcome(outcome)

@@ -9,11 +9,12 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from parsel_batch.batch import check_dask_address, ordered, read_results, run_batch, run_cases
+from parsel_batch.batch import check_dask_address, log_outcome, ordered, read_results, run_batch, run_cases
 from parsel_batch.cases import Case, read_cases
 from parsel_batch.metrics import summarise
 from parsel_batch.runner import RunDefaults
 from parsel_core.errors import ParselError
+from parsel_core.verbosity import add_verbosity_options, shows_progress
 
 EVAL_FORMAT = "parsel.eval"
 EVAL_VERSION = 1
@@ -104,10 +105,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
         from parsel_batch.batch import progress_bar
 
         defaults = RunDefaults(backend=args.backend)
-        bar = progress_bar(len(cases), not args.quiet)
+        bar = progress_bar(len(cases), shows_progress())
         done = []
         for outcome in run_cases(cases, defaults, args.workers):
             done.append(outcome.record)
+            log_outcome(outcome)
             bar.update(1)
         bar.close()
         records = ordered(done, cases)
@@ -133,7 +135,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     try:
         summary = run_batch(cases, args.output, workers=workers, dask=args.dask,
                             defaults=RunDefaults(backend=args.backend), retry_failed=args.retry_failed,
-                            progress=not args.no_progress)
+                            progress=shows_progress() and not args.no_progress)
     except KeyboardInterrupt:
         print(f"\ninterrupted: finished cases are kept in {args.output}; run the same command to resume",
               file=sys.stderr)
@@ -172,7 +174,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--results", metavar="OUTDIR",
                    help="do not run: score the records a `parsel batch` run wrote to OUTDIR")
     p.add_argument("--backend", metavar="NAME", help="CAS backend for cases that do not choose one")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_verbosity_options(p, verbose_help="also print each case's status, ops and time on stderr as it finishes")
     p.set_defaults(func=cmd_eval)
 
     p = subparsers.add_parser("batch", help="run many cases, resumably, on local processes or a Dask cluster",
@@ -187,7 +189,8 @@ def register(subparsers: Any) -> None:
                    help="local worker processes (default: the CPUs available; 0 runs in this process)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
     p.add_argument("--retry-failed", action="store_true", help="run failed cases again instead of skipping them")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)  # the old spelling of --quiet
     p.add_argument("--json", action="store_true", help="print the run's summary as JSON")
     p.add_argument("--backend", metavar="NAME", help="CAS backend for cases that do not choose one")
+    add_verbosity_options(p, verbose_help="also print each case's status, ops and time on stderr as it finishes")
     p.set_defaults(func=cmd_batch)

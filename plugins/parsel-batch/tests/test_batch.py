@@ -315,3 +315,19 @@ def test_a_bad_dask_address_is_refused_before_outdir_is_made(tmp_path, capsys):
         assert main(["batch", str(path), "-o", str(tmp_path / "res"), "--dask", address, "--no-progress"]) == 2
         assert "expected a scheduler address" in capsys.readouterr().err
     assert not (tmp_path / "res").exists()
+
+
+def test_batch_and_eval_verbose_print_each_case_and_quiet_prints_nothing(tmp_path, capsys, monkeypatch):
+    from parsel_core import progress as progress_module
+
+    monkeypatch.setattr(progress_module, "DELAY", 0.0)  # progress from the first case
+    path = cases_file(tmp_path, SEEDS[:2])
+    assert main(["batch", str(path), "-o", str(tmp_path / "v"), "--workers", "0", "--verbose"]) == 0
+    err = capsys.readouterr().err
+    assert "parsel: case case-00: ok, " in err and "parsel: case case-01: ok, " in err and "cases: 2/2" in err
+    assert main(["batch", str(path), "-o", str(tmp_path / "q"), "--workers", "0", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["eval", str(path), "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["eval", str(path), "-v"]) == 0
+    assert "parsel: case case-01: ok, " in capsys.readouterr().err

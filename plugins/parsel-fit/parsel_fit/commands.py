@@ -5,19 +5,24 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from parsel_core.cli import EVALUATE_BACKEND_HELP
+from parsel_core.verbosity import add_verbosity_options
+
 
 def cmd_fit(args: argparse.Namespace) -> int:
     """Fit PROGRAM's parameters so SHAPE edited by it comes closest to TARGET; write the fitted program."""
     from parsel_core.errors import ParselError
-    from parsel_core.io import atomic_write_text
     from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_core.outputs import to_stdout, write_single
+    from parsel_core.verbosity import logger
     from parsel_fit.fit import fit_program, fitted_program
     from parsel_fit.targets import load_target
 
-    output = Path(args.output)
-    if output.suffix.lower() != ".json":
+    stdout = to_stdout(args.output)
+    output = Path(args.output or "-")
+    if not stdout and output.suffix.lower() != ".json":
         raise ParselError(f"{output}: the fitted program is written as JSON (.json)")
-    if not output.parent.is_dir():
+    if not stdout and not output.parent.is_dir():
         raise ParselError(f"{output}: output directory {output.parent} does not exist")
     if args.starts < 1 or args.points < 16:
         raise ParselError("--starts must be at least 1 and --points at least 16")
@@ -25,16 +30,18 @@ def cmd_fit(args: argparse.Namespace) -> int:
     program = load_program(args.program)
     target = load_target(args.target, count=args.points * 2, seed=args.seed + 1)
     result = fit_program(shape, program, target, starts=args.starts, samples=args.points, seed=args.seed,
-                         fixed=parse_assignments(args.set))
-    atomic_write_text(output, fitted_program(program, result, args.target).to_json())
+                         fixed=parse_assignments(args.set), backend=args.backend)
+    write_single(None if stdout else output, fitted_program(program, result, args.target).to_json())
+    say = logger.info if stdout else print  # stdout holds the program itself: the summary is a note
     size = shape.size or 1.0
-    print(f"Chamfer distance: {result.distance_before:.5g} at the defaults -> {result.distance_after:.5g} fitted "
-          f"({result.distance_after / size:.3%} of the diagonal); {result.evaluations} evaluations, "
-          f"{result.cpu_s:.2f} s CPU")
+    say(f"Chamfer distance: {result.distance_before:.5g} at the defaults -> {result.distance_after:.5g} fitted "
+        f"({result.distance_after / size:.3%} of the diagonal); {result.evaluations} evaluations, "
+        f"{result.cpu_s:.2f} s CPU")
     for p in program.parameters:
-        print(f"  {p.name} = {result.values[p.name]:.6g}  (range [{p.lo:g}, {p.hi:g}], was "
-              f"{result.start_values[p.name]:g})")
-    print(output)
+        say(f"  {p.name} = {result.values[p.name]:.6g}  (range [{p.lo:g}, {p.hi:g}], was "
+            f"{result.start_values[p.name]:g})")
+    if not stdout:
+        print(output)
     return 0
 
 
@@ -43,10 +50,13 @@ def register(subparsers) -> None:
     p.add_argument("shape", help="shape file or example name")
     p.add_argument("program", help="program file (.json or text form)")
     p.add_argument("target", help="target: a mesh (.ply .obj .off .stl .glb), points (.xyz .pts .npy) or a shape")
-    p.add_argument("-o", "--output", required=True, help="the fitted program (.json): fitted values as defaults")
+    p.add_argument("-o", "--output", help="the fitted program (.json): fitted values as defaults; - (or no -o): "
+                   "print it on stdout, the summary on stderr")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="keep a parameter at this value")
     p.add_argument("--starts", type=int, default=4, help="optimiser starts (default 4: the defaults + 3 spread)")
     p.add_argument("--points", type=int, default=8192,
                    help="surface points sampled on the edited shape (default 8192)")
     p.add_argument("--seed", type=int, default=0, help="seed of the samples and starts (default 0)")
+    p.add_argument("--backend", metavar="NAME", help=EVALUATE_BACKEND_HELP)
+    add_verbosity_options(p, verbose_help="also print each optimiser start's end point and distance on stderr")
     p.set_defaults(func=cmd_fit)

@@ -159,3 +159,41 @@ def test_a_batch_case_with_a_target_is_fitted(tmp_path):
     assert not missing.ok and "gone.ply: target file not found" in missing.record["error"]["message"]
     with pytest.raises(CaseFormatError, match="'target' must be"):
         parse_case({"shape": "tiny_table", "seed": seed, "target": 3}, base=tmp_path)
+
+
+def test_fit_command_prints_the_program_on_stdout_with_a_backend(tmp_path, capsys):
+    shape = load_shape("tiny_table")
+    program = Program.from_text(WIDEN_TINY_TABLE)
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(WIDEN_TINY_TABLE, encoding="utf-8")
+    np.savetxt(tmp_path / "target.xyz", _target(shape, program, {"x": 0.4}, noise=0.002))
+    argv = ["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "--points", "1024",
+            "--starts", "2"]
+    assert main([*argv, "-o", "-", "--backend", "symengine", "--verbose"]) == 0
+    captured = capsys.readouterr()
+    fitted = Program.from_json(captured.out)  # stdout holds the program only
+    assert abs(fitted.parameters[0].default - 0.4) < 0.02
+    assert "Chamfer distance:" in captured.err and "fit start" in captured.err and "fit polish" in captured.err
+    assert main(argv) == 0  # no -o: stdout as well
+    # the numpy reference and the compiled backend agree to rounding
+    assert Program.from_json(capsys.readouterr().out).parameters[0].default == pytest.approx(
+        fitted.parameters[0].default, abs=1e-6)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["target.xyz", "widen.parsel"]
+
+
+def test_a_fit_that_cannot_come_closer_says_why():
+    """A slider that only widens cannot come closer to a narrower target: the fit stays at rest
+    and says that x would have to go below its range."""
+    shape = load_shape("tiny_table")
+    widen = Program.from_text(WIDEN_TINY_TABLE.replace("default 0.25", "default 0"))
+    narrow = Program.from_text("param x in [0, 1]\n"
+                               "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=-0.3)\n")
+    target = _target(shape, narrow, {"x": 1.0}, noise=0.0)
+    result = fit_program(shape, widen, target, starts=2, samples=1024)
+    assert not result.lowered and result.values == result.start_values == {"x": 0.0}
+    assert "x is at the lower end of [0, 0.5]" in result.no_gain and "below the range" in result.no_gain
+    # the same slider centred on the rest shape (amount k*(x - 0.5)) reaches the narrower top
+    centred = Program.from_text("param x in [0, 1] default 0.5\n"
+                                "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x - 0.5)\n")
+    result = fit_program(shape, centred, target, starts=2, samples=1024)
+    assert result.lowered and result.no_gain is None and abs(result.values["x"] - 0.2) < 0.03

@@ -7,11 +7,15 @@ import sys
 import time
 from pathlib import Path
 
+from parsel_core.cli import EVALUATE_BACKEND_HELP
+from parsel_core.verbosity import VERBOSE, add_verbosity_options, logger
+
 
 def cmd_view(args: argparse.Namespace) -> int:
     """Serve the slider page of OUTDIR's program on 127.0.0.1, or write it as one file with --html."""
+    from parsel_core.outputs import to_stdout, write_single
     from parsel_view.inputs import read_inputs
-    from parsel_view.page import PageServer, check_port, write_html
+    from parsel_view.page import PageServer, check_port, render_html, write_html
     from parsel_view.scene import build_page_data
 
     if not args.html:
@@ -19,11 +23,14 @@ def cmd_view(args: argparse.Namespace) -> int:
     inputs = read_inputs(args.outdir, args.shape)
     page = build_page_data(inputs.program, inputs.shape,
                            meta={"sources": [str(p) for p in inputs.sources], "shape": inputs.shape_spec})
+    if args.html and to_stdout(args.html):
+        write_single(None, render_html(page, inline=True))
+        return 0
     if args.html:
         path = write_html(page, args.html)
         print(path)
         return 0
-    server = PageServer(page, port=args.port, quiet=not args.verbose)
+    server = PageServer(page, port=args.port, quiet=not logger.isEnabledFor(VERBOSE))
     url = server.start()
     print(f"serving {inputs.shape.name} with {len(inputs.program.parameters)} slider(s) at {url} (Ctrl-C stops)",
           flush=True)
@@ -45,13 +52,18 @@ def cmd_render(args: argparse.Namespace) -> int:
     """Draw a filmstrip of SHAPE edited by PROGRAM across a parameter's range."""
     from parsel_core.errors import ParselError
     from parsel_core.loading import load_program, load_shape, parse_assignments
+    from parsel_core.outputs import stdout_suffix, to_stdout, write_single, written_by
+    from parsel_core.verbosity import shows_progress
     from parsel_view.inputs import program_path
-    from parsel_view.render import draw_filmstrip, filmstrip_format
+    from parsel_view.render import FILMSTRIP_FORMATS, draw_filmstrip, filmstrip_format
 
+    # before loading anything: fail fast on a typo
+    suffix = stdout_suffix("-o", args.output, args.format, FILMSTRIP_FORMATS)
     output = Path(args.output)
-    filmstrip_format(output)  # before loading anything: fail fast on a typo
-    if not output.parent.is_dir():
-        raise ParselError(f"{output}: output directory {output.parent} does not exist")
+    if not to_stdout(args.output):
+        filmstrip_format(output)
+        if not output.parent.is_dir():
+            raise ParselError(f"{output}: output directory {output.parent} does not exist")
     path = program_path(args.program)
     program = load_program(path)
     shape = load_shape(args.shape)
@@ -60,8 +72,16 @@ def cmd_render(args: argparse.Namespace) -> int:
     except ParselError as exc:
         raise ParselError(f"{path}: does not match shape {shape.name!r}: {exc}") from None
     options = {"resolution": args.resolution} if args.resolution is not None else {}
-    draw_filmstrip(shape, program, output, frames=args.frames, parameter=args.param,
-                   values=parse_assignments(args.set), remesh=args.remesh, remesh_options=options)
+
+    def draw(path: Path) -> None:
+        draw_filmstrip(shape, program, path, frames=args.frames, parameter=args.param,
+                       values=parse_assignments(args.set), remesh=args.remesh, remesh_options=options,
+                       backend=args.backend, progress=shows_progress())
+
+    if to_stdout(args.output):
+        write_single(None, written_by(suffix, draw))
+        return 0
+    draw(output)
     print(output)
     return 0
 
@@ -73,18 +93,23 @@ def register(subparsers) -> None:
     p.add_argument("--shape", help="shape file or example name (default: the program's metadata 'shape')")
     p.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (default 8765; 0: any free port)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
-    p.add_argument("--html", metavar="FILE", help="write the page as one self-contained .html file and exit")
-    p.add_argument("--verbose", action="store_true", help="log every request")
+    p.add_argument("--html", metavar="FILE", help="write the page as one self-contained .html file and exit "
+                   "(- for stdout)")
+    add_verbosity_options(p, verbose_help="also log every request the server answers")
     p.set_defaults(func=cmd_view)
 
     p = subparsers.add_parser("render", help="a filmstrip picture (or a .gif animation) of the edited shape across "
                                              "a parameter's range")
     p.add_argument("shape", help="shape file or example name")
     p.add_argument("program", help="program file (.json or text form) or an OUTDIR of parsel edit")
-    p.add_argument("-o", "--output", required=True, help="picture file: .png, .svg or .pdf; .gif for an animation")
+    p.add_argument("-o", "--output", required=True, help="picture file: .png, .svg or .pdf; .gif for an animation; "
+                   "- for stdout (with --format)")
+    p.add_argument("--format", metavar="EXT", help="picture format for -o -: png, svg, pdf or gif")
     p.add_argument("--frames", type=int, default=5, help="number of parameter values (default 5)")
     p.add_argument("--param", metavar="NAME", help="parameter to sweep (default: the first)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="value of another parameter (repeatable)")
     p.add_argument("--remesh", action="store_true", help="draw the watertight remesh (needs parsel-remesh)")
     p.add_argument("--resolution", type=int, help="remesh grid cells along the longest side (with --remesh)")
+    p.add_argument("--backend", metavar="NAME", help=EVALUATE_BACKEND_HELP)
+    add_verbosity_options(p, verbose_help="also print the time each frame took to evaluate and draw")
     p.set_defaults(func=cmd_render)

@@ -12,6 +12,7 @@ matplotlib already depends on; no external binary).
 from __future__ import annotations
 
 import io
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,12 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.drawing import PICTURE_FORMATS
+from parsel_core.drawing import PICTURE_FORMATS, PLOT_AXES, set_camera
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
 from parsel_core.io import atomic_write_bytes
-from parsel_core.program import Evaluation, Program, evaluate
+from parsel_core.program import Evaluation, Program, evaluator
+from parsel_core.verbosity import logger
 
 MAX_FRAMES = 24
 #: What ``parsel render`` writes, by suffix: the strip's picture formats and the animation.
@@ -104,11 +106,14 @@ FRAME_ZOOM = 1.45
 
 def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames: int = 5,
                    parameter: str | None = None, values: Mapping[str, float] | None = None, remesh: bool = False,
-                   remesh_options: Mapping[str, Any] | None = None, dpi: int = 110) -> Path:
+                   remesh_options: Mapping[str, Any] | None = None, dpi: int = 110, backend: str | None = None,
+                   progress: bool = True) -> Path:
     """Draw ``frames`` views of ``shape`` edited by ``program``, ``parameter`` swept over its range.
 
     Other parameters take ``values`` or their defaults. The picture is written atomically;
-    its format comes from the suffix (``.png``, ``.svg``, ``.pdf``).
+    its format comes from the suffix (``.png``, ``.svg``, ``.pdf``). ``backend`` evaluates
+    through that CAS backend instead of the numpy reference; ``progress`` allows a display
+    on stderr (shown only with ``remesh``, which takes seconds per frame).
     """
     path = Path(path)
     fmt = filmstrip_format(path)
@@ -124,13 +129,17 @@ def draw_filmstrip(shape: ShapeGraph, program: Program, path: Path | str, frames
     fixed = program.values(values)
     swept = program.parameter(parameter) if parameter else program.parameters[0]
     xs = np.linspace(swept.lo, swept.hi, frames) if frames > 1 else np.array([fixed[swept.name]])
-    from parsel_core.progress import progress
+    from parsel_core.progress import progress as progress_display
 
-    bar = progress(len(xs), "frames", enabled=remesh)  # remeshing takes seconds per frame
+    bar = progress_display(len(xs), "frames", enabled=remesh and progress)  # remeshing: seconds per frame
+    evaluate = evaluator(program, shape, backend)
     geometries = []
     for x in xs:
-        geometries.append(frame_geometry(shape, evaluate(program, shape, {**fixed, swept.name: float(x)}), remesh,
-                                         remesh_options))
+        started = time.perf_counter()
+        geometries.append(frame_geometry(shape, evaluate({**fixed, swept.name: float(x)}), remesh, remesh_options))
+        logger.debug(f"frame {swept.name} = {x:.4g}: {len(geometries[-1].triangles)} triangles in "
+                     f"{time.perf_counter() - started:.3f} s ({backend or 'numpy reference'} evaluation"
+                     f"{', remeshed' if remesh else ''})")
         bar.update(1)
     bar.close()
 
@@ -184,19 +193,11 @@ def _draw_frame(ax, geometry: FrameGeometry, colours: Mapping[str, tuple], view:
     """One frame on a 3D axis; ``view`` (centre, radius) is shared by all frames so motion shows."""
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    mid, radius = view
     rgba = np.array([colours.get(label, (0.6, 0.6, 0.6, 1.0)) for label in geometry.labels]).reshape(-1, 4)
-    drawn = geometry.triangles[..., [0, 2, 1]]  # y up: plot (x, z, y)
+    drawn = geometry.triangles[..., PLOT_AXES]
     ax.add_collection3d(Poly3DCollection(drawn, facecolors=_shaded(rgba, geometry.triangles), edgecolors="none",
                                          linewidths=0))
-    ax.set_xlim(mid[0] - radius, mid[0] + radius)
-    ax.set_ylim(mid[2] - radius, mid[2] + radius)
-    ax.set_zlim(mid[1] - radius, mid[1] + radius)
-    ax.set_box_aspect((1, 1, 1), zoom=zoom)
-    ax.view_init(elev=18, azim=-60)
-    ax.set_axis_off()
-    if title:
-        ax.set_title(title, fontsize=9)
+    set_camera(ax, *view, zoom=zoom, elev=18, title=title)
 
 
 def _figure_rgb(figure) -> np.ndarray:

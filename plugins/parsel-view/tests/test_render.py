@@ -114,3 +114,45 @@ def test_gif_filmstrip_frames_move(chair, tmp_path, capsys):
 def test_unknown_filmstrip_format_fails_before_loading(tmp_path, capsys):
     assert main(["render", "chair", "missing.json", "-o", str(tmp_path / "strip.mp4")]) == 2
     assert "unknown picture format '.mp4' (known: .gif, .pdf, .png, .svg)" in capsys.readouterr().err
+
+
+def test_render_with_a_backend(tmp_path, capsys, monkeypatch):
+    """``--backend`` compiles the program with that CAS backend; ``--verbose`` times each frame."""
+    from parsel_core import program as program_module
+
+    used = []
+    original = program_module.compile_program
+    monkeypatch.setattr(program_module, "compile_program",
+                        lambda program, shape, backend: used.append(backend.name) or original(program, shape, backend))
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
+    out = tmp_path / "strip.png"
+    assert main(["render", "tiny_table", str(program_path), "-o", str(out), "--frames", "2", "--backend", "sympy",
+                 "--verbose"]) == 0
+    captured = capsys.readouterr()
+    assert used == ["sympy"] and Image.open(out).format == "PNG"
+    assert "parsel: frame x = 0:" in captured.err and "sympy evaluation" in captured.err
+
+
+def test_render_to_stdout_writes_the_picture_bytes(tmp_path, capfdbinary):
+    """``-o - --format gif``: the picture's bytes on stdout, nothing on stderr with --quiet, no file."""
+    import io
+
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
+    assert main(["render", "tiny_table", str(program_path), "-o", "-", "--format", "gif", "--frames", "2",
+                 "--quiet"]) == 0
+    captured = capfdbinary.readouterr()
+    assert Image.open(io.BytesIO(captured.out)).format == "GIF" and captured.err == b""
+    assert main(["render", "tiny_table", str(program_path), "-o", "-"]) == 2
+    assert b"-o -: name the format with --format" in capfdbinary.readouterr().err
+    assert [p.name for p in tmp_path.iterdir()] == ["widen.parsel"]
+
+
+def test_view_html_to_stdout(tmp_path, capsys):
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
+    assert main(["view", str(program_path), "--shape", "tiny_table", "--html", "-"]) == 0
+    out = capsys.readouterr().out
+    assert out.lstrip().lower().startswith("<!doctype html>") and "</html>" in out
+    assert [p.name for p in tmp_path.iterdir()] == ["widen.parsel"]

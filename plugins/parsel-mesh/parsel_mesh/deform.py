@@ -60,8 +60,8 @@ def one_blas_thread():
     """A context in which BLAS (numpy's OpenBLAS) runs on one thread.
 
     Measured with ``benchmarks/bench_deform.py --vertices 437000`` on a shared 2-core
-    machine: deforming took 37-42 ms on one thread against 600-650 ms on OpenBLAS's
-    default threads next to two busy processes, 12-13 ms against 24-92 ms without them;
+    machine (docs/meshes.md): a step of float64 products took a median 14 ms on one
+    thread against 190-310 ms on OpenBLAS's default threads next to two busy processes;
     entering the context costs about 10 microseconds.
     """
     return _blas_controller().limit(limits=1, user_api="blas")

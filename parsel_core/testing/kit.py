@@ -145,44 +145,52 @@ def _variants(cls: Any) -> Iterator[tuple[str, Any]]:
     yield "amount x*x - x", _program(cls, amount="x*x - x")
 
 
-def _batched(where: str, cls: Any) -> None:
+def _agrees_with_numeric(where: str, cls: Any, path: str, other: Callable[[Any, Any, np.ndarray], Any]) -> None:
+    """Compare another evaluation path with the batched numeric one on every variant of the op.
+
+    ``other(program, shape, xs)`` returns the corners ``(len(xs), 8, 3)`` of the path under
+    test; the error names the variant, the path, the slider value and the corner.
+    """
     from parsel_core.program import evaluate
 
     shape = _box_shape()
+    xs = np.array(AMOUNTS)
     for label, program in _variants(cls):
-        batch = evaluate(program, shape, {"x": np.array(AMOUNTS)}).parts["box"]
-        _require(batch.shape == (len(AMOUNTS), 8, 3), f"{where} ({label}): batched corners have shape {batch.shape}")
-        for i, x in enumerate(AMOUNTS):
-            one = evaluate(program, shape, {"x": x}).parts["box"]
-            error = float(np.max(np.abs(batch[i] - one)))
-            _require(error <= ATOL,
-                     f"{where} ({label}): batched and single evaluation differ by {error:.3g} at x = {x}")
-    moved = evaluate(_program(cls), shape, {"x": np.array(AMOUNTS)}).parts["box"]
+        numeric = evaluate(program, shape, {"x": xs}).parts["box"]
+        _require(numeric.shape == (len(xs), 8, 3), f"{where} ({label}): batched corners have shape {numeric.shape}")
+        try:
+            got = np.asarray(other(program, shape, xs), dtype=float)
+        except Exception as exc:
+            raise AssertionError(f"{where} ({label}): {path} fails: {type(exc).__name__}: {exc}") from None
+        error = np.abs(got - numeric)
+        if float(error.max()) > ATOL:
+            i, k, _ = np.unravel_index(int(np.argmax(error)), error.shape)
+            raise AssertionError(f"{where} ({label}): {path} and the numeric path disagree by "
+                                 f"{float(error.max()):.3g} at x = {AMOUNTS[i]} (corner {k})")
+
+
+def _batched(where: str, cls: Any) -> None:
+    from parsel_core.program import evaluate
+
+    def one_by_one(program: Any, shape: Any, xs: np.ndarray) -> np.ndarray:
+        return np.stack([evaluate(program, shape, {"x": float(x)}).parts["box"] for x in xs])
+
+    _agrees_with_numeric(where, cls, "the per-sample evaluation", one_by_one)
+    moved = evaluate(_program(cls), _box_shape(), {"x": np.array(AMOUNTS)}).parts["box"]
     _require(np.all(np.isfinite(moved)), f"{where}: non-finite corners for x in {AMOUNTS}")
 
 
 def _symbolic(where: str, cls: Any) -> None:
     from parsel_core.plugins import cas_backend_names, get_cas_backend
-    from parsel_core.program import compile_program, evaluate
+    from parsel_core.program import compile_program
 
-    shape = _box_shape()
     names = cas_backend_names()
     _require(names, f"{where}: no CAS backend is installed to check the symbolic path")
-    xs = np.array(AMOUNTS)
     for backend_name in names:
         backend = get_cas_backend(backend_name)
-        for label, program in _variants(cls):
-            numeric = evaluate(program, shape, {"x": xs}).parts["box"]
-            try:
-                symbolic = np.asarray(compile_program(program, shape, backend)({"x": xs}).parts["box"], dtype=float)
-            except Exception as exc:
-                raise AssertionError(f"{where} ({label}): the symbolic path fails on {backend_name}: "
-                                     f"{type(exc).__name__}: {exc}") from None
-            error = np.abs(symbolic - numeric)
-            if float(error.max()) > ATOL:
-                i, k, _ = np.unravel_index(int(np.argmax(error)), error.shape)
-                raise AssertionError(f"{where} ({label}): the symbolic path ({backend_name}) and the numeric path "
-                                     f"disagree by {float(error.max()):.3g} at x = {AMOUNTS[i]} (corner {k})")
+        _agrees_with_numeric(where, cls, f"the symbolic path ({backend_name})",
+                             lambda program, shape, xs, b=backend: compile_program(program, shape, b)(
+                                 {"x": xs}).parts["box"])
 
 
 def _reflect(points: np.ndarray) -> np.ndarray:

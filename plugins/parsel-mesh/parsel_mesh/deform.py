@@ -1,21 +1,29 @@
 """The cage deformer: part meshes follow their edited hexahedra through cage coordinates.
 
 Each vertex is held by its 8 trilinear weights in the part's rest hexahedron
-(``parsel_core.cage.point_weights``), computed once per shape and part, so a slider step
-is one ``(m, 8) @ (8, 3)`` product per part. Vertices outside the box (there are none for
+(``parsel_core.cage.point_weights``), computed once per shape and part, so deforming is
+one ``(m, 8) @ (8, 3)`` product per part. Vertices outside the box (there are none for
 fitted boxes, but meshes may be edited) extrapolate the same map. The products run on one
-BLAS thread (:func:`one_blas_thread`): they are bound by memory, and OpenBLAS's threads
-slow them down many times over as soon as other work shares the cores.
+BLAS thread (:func:`one_blas_thread`): three columns wide, they gain little from OpenBLAS's
+threads on an idle machine, and those threads slow them down many times over as soon as
+other work shares the cores.
+
+:func:`deformed_vertices` returns fresh float64 arrays (exports, pictures, tests);
+:class:`LiveDeformation` is the slider's form: float32 operands and vertex buffers reused
+from step to step, only the parts whose corners moved since the last step recomputed, and
+affinely edited parts moved by a 4-column product of their rest vertices.
 """
 
 from __future__ import annotations
 
 import weakref
 from collections.abc import Mapping
+from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
 import numpy as np
+from numpy.typing import DTypeLike
 
 from parsel_core.cage import point_weights
 from parsel_core.errors import ParselError
@@ -52,8 +60,8 @@ def one_blas_thread():
     """A context in which BLAS (numpy's OpenBLAS) runs on one thread.
 
     Measured with ``benchmarks/bench_deform.py --vertices 437000`` on a shared 2-core
-    machine: deforming took 37-42 ms on one thread against 600-650 ms on OpenBLAS's
-    default threads next to two busy processes, 12-13 ms against 24-92 ms without them;
+    machine (docs/meshes.md): a step of float64 products took a median 14 ms on one
+    thread against 190-310 ms on OpenBLAS's default threads next to two busy processes;
     entering the context costs about 10 microseconds.
     """
     return _blas_controller().limit(limits=1, user_api="blas")
@@ -100,6 +108,102 @@ def deformed_vertices(shape: ShapeGraph, evaluation: Evaluation) -> dict[str, np
     return out
 
 
+#: An edit is treated as affine when its corners fit an affine map of the rest corners to
+#: this fraction of their magnitude; vertices inside the box then move by at most that much
+#: more than under the trilinear map (their weights are non-negative and sum to 1).
+AFFINE_TOLERANCE = 1e-9
+
+
+@dataclass(frozen=True)
+class _Cage:
+    """What a live deformation keeps per part, built once."""
+
+    rest: np.ndarray     # (m, 4) rest vertices with a 1 appended, for affine edits
+    weights: np.ndarray  # (m, 8) cage coordinates, for the others
+    fit: np.ndarray      # (4, 8) least-squares affine map from the 8 corners (pseudo-inverse)
+    corners: np.ndarray  # (8, 4) rest corners with a 1 appended
+
+
+class LiveDeformation:
+    """Deformed vertices for an interactive slider: call it once per slider step.
+
+    Built once per shape: every part's rest vertices and cage coordinates, in ``dtype``
+    (float32 by default: half the time and memory of float64 for a relative error near
+    1e-7, far below a pixel), and a vertex buffer per part and group instance that every
+    step writes into, so that a step allocates nothing per vertex. A step recomputes only
+    the parts and instances whose corners differ from the previous step's. Most edits
+    (translate, rotate, scale, shear, a face moved along an axis, group copies) map the
+    rest box affinely; those parts are one ``(m, 4) @ (4, 3)`` product of the rest
+    vertices, the others ``(m, 8) @ (8, 3)`` of the cage coordinates. A step returns
+    read-only views of the buffers: they change with the next step, so copy what must
+    outlive it. ``dtype=np.float64`` gives the values of :func:`deformed_vertices` to
+    rounding.
+    """
+
+    def __init__(self, shape: ShapeGraph, dtype: DTypeLike = np.float32) -> None:
+        self.shape = shape
+        self.dtype = np.dtype(dtype)
+        self._cages = {pid: self._cage(pid) for pid in shape.parts}
+        # name -> (buffer, read-only view of it, corners it was last computed for)
+        self._vertices: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None]] = {}
+
+    def _cage(self, part_id: str) -> _Cage:
+        weights = cage_weights_of(self.shape, part_id)
+        vertices = np.asarray(part_mesh(self.shape, part_id).vertices, dtype=float)
+        corners = np.hstack([self.shape.part(part_id).hexahedron.corners, np.ones((8, 1))])
+        # Fortran order: OpenBLAS ran these tall, thin products 10-30% faster from
+        # column-major operands into a row-major result (one core, 20k-80k-vertex parts)
+        rest = np.asfortranarray(np.hstack([vertices, np.ones((len(vertices), 1))]), dtype=self.dtype)
+        cage = _Cage(rest, np.asfortranarray(weights, dtype=self.dtype), np.linalg.pinv(corners), corners)
+        for array in (cage.rest, cage.weights):
+            array.flags.writeable = False
+        return cage
+
+    def __call__(self, evaluation: Evaluation) -> dict[str, np.ndarray]:
+        """Deformed vertices per part id and ``<member>#<i>`` instance, as :func:`deformed_vertices` names them."""
+        shape = self.shape
+        replaced = {m for group in evaluation.instances for m in shape.relation(group).members}
+        moved: list[tuple[str, _Cage, np.ndarray]] = []  # (name, cage, corners) to recompute
+        out: dict[str, np.ndarray] = {}
+        for pid in shape.parts:
+            if pid not in replaced:
+                out[pid] = self._view(pid, self._cages[pid], _corners(evaluation, pid), moved)
+        for group, instances in evaluation.instances.items():
+            first = shape.relation(group).members[0]
+            for i, corners in enumerate(np.asarray(instances, dtype=float)):
+                name = instance_name(first, i)
+                out[name] = self._view(name, self._cages[first], corners, moved)
+        if moved:
+            with one_blas_thread():
+                for name, cage, corners in moved:
+                    buffer, view, _ = self._vertices[name]
+                    self._deform(cage, corners, buffer)
+                    self._vertices[name] = (buffer, view, corners.copy())
+        return out
+
+    def _deform(self, cage: _Cage, corners: np.ndarray, out: np.ndarray) -> None:
+        affine = cage.fit @ corners  # (4, 3): rows x, y, z and the translation
+        scale = 1.0 + float(np.abs(corners).max())
+        if float(np.abs(cage.corners @ affine - corners).max()) <= AFFINE_TOLERANCE * scale:
+            np.matmul(cage.rest, affine.astype(self.dtype), out=out)
+        else:
+            np.matmul(cage.weights, corners.astype(self.dtype), out=out)
+
+    def _view(self, name: str, cage: _Cage, corners: np.ndarray,
+              moved: list[tuple[str, _Cage, np.ndarray]]) -> np.ndarray:
+        """The read-only view of ``name``'s buffer; queues the product when its corners moved."""
+        entry = self._vertices.get(name)
+        if entry is None:
+            buffer = np.empty((len(cage.rest), 3), dtype=self.dtype)
+            view = buffer.view()
+            view.flags.writeable = False
+            entry = self._vertices[name] = (buffer, view, None)
+        last = entry[2]
+        if last is None or not np.array_equal(last, corners):
+            moved.append((name, cage, corners))
+        return entry[1]
+
+
 def source_part(shape: ShapeGraph, name: str) -> str:
     """The part whose mesh a deformed name comes from (``leg#2`` -> ``leg``)."""
     return name if name in shape.parts else name.rpartition("#")[0]
@@ -134,3 +238,7 @@ class CageDeformer(Deformer):
     def vertices(self, shape: ShapeGraph, evaluation: Evaluation) -> dict[str, np.ndarray]:
         """Only the vertex arrays: the cheapest form for an interactive slider."""
         return deformed_vertices(shape, evaluation)
+
+    def live(self, shape: ShapeGraph, dtype: DTypeLike = np.float32) -> LiveDeformation:
+        """A :class:`LiveDeformation` of ``shape``: the fastest form for a slider, one call per step."""
+        return LiveDeformation(shape, dtype)

@@ -11,12 +11,13 @@ from parsel_core.cage import inverse_trilinear
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import Hexahedron
+from parsel_core.loading import load_shape
 from parsel_core.part import Part
 from parsel_core.plugins import deformers, get_cas_backend
 from parsel_core.program import Program, compile_program, evaluate
 from parsel_mesh import deform
-from parsel_mesh.deform import CageDeformer, cage_weights_of, deformed_meshes, deformed_vertices
-from parsel_mesh.examples import example_path
+from parsel_mesh.deform import CageDeformer, LiveDeformation, cage_weights_of, deformed_meshes, deformed_vertices
+from parsel_mesh.examples import CHAIR_ALL_PART_OPS, example_path
 from parsel_mesh.loaders import load_mesh_shape, shape_from_meshes
 from parsel_mesh.testing import box_mesh
 
@@ -188,3 +189,98 @@ def test_cage_products_run_on_one_blas_thread_and_restore_the_pool(monkeypatch):
     seat = shape.parts["seat"]
     np.testing.assert_allclose(vertices["seat"], cage_weights_of(shape, "seat") @ evaluation.parts["seat"])
     assert len(vertices["seat"]) == len(seat.mesh.vertices)
+
+
+def _reference(shape: ShapeGraph, evaluation) -> dict[str, np.ndarray]:
+    """Straightforward evaluation: each vertex's weights solved afresh, times its part's corners, in float64."""
+    from parsel_core.cage import cage_weights
+
+    out = {}
+    replaced = {m for group in evaluation.instances for m in shape.relation(group).members}
+    for pid, part in shape.parts.items():
+        weights = cage_weights(inverse_trilinear(part.hexahedron.corners, np.asarray(part.mesh.vertices)))
+        if pid not in replaced:
+            out[pid] = weights @ np.asarray(evaluation.parts[pid])
+        for group, instances in evaluation.instances.items():
+            if shape.relation(group).members[0] == pid:
+                out.update({f"{pid}#{i}": weights @ corners for i, corners in enumerate(instances)})
+    return out
+
+
+def _assert_close_relative(got: dict[str, np.ndarray], expected: dict[str, np.ndarray], rtol: float) -> None:
+    assert sorted(got) == sorted(expected)
+    for name, vertices in expected.items():
+        scale = np.abs(vertices).max()
+        error = np.abs(np.asarray(got[name], dtype=float) - vertices).max()
+        assert error <= rtol * scale, (name, error / scale)
+
+
+CHAIR_GROUP_PROGRAM = CHAIR_ALL_PART_OPS + (
+    "change_count(translation_0, mode='top_down', amount=4 * x)\n")
+
+
+@pytest.mark.parametrize("text", [CHAIR_ALL_PART_OPS, CHAIR_GROUP_PROGRAM], ids=["part ops", "group re-laid out"])
+def test_live_deformation_matches_a_reference_evaluation(chair, text):
+    """float32 buffers, skipped parts and the affine shortcut stay within 1e-6 of the float64 cage map."""
+    shape = load_shape("chair") if "translation_0" in text else chair  # load_shape detects the slats' group
+    program = Program.from_text(text)
+    live = CageDeformer().live(shape)
+    for values in ({"x": 0.3, "y": -0.2}, {"x": 0.3, "y": 0.4}, {"x": 0.9, "y": 0.4}, {"x": 0.0, "y": 0.0}):
+        evaluation = evaluate(program, shape, values)
+        moved = live(evaluation)
+        assert all(v.dtype == np.float32 and not v.flags.writeable for v in moved.values())
+        _assert_close_relative(moved, _reference(shape, evaluation), rtol=1e-6)
+
+
+def test_live_deformation_in_float64_equals_the_deformer(chair):
+    program = Program.from_text(CHAIR_ALL_PART_OPS)
+    live = CageDeformer().live(chair, dtype=np.float64)
+    for x in (0.2, 0.7):
+        evaluation = evaluate(program, chair, {"x": x, "y": 0.1})
+        moved, expected = live(evaluation), deformed_vertices(chair, evaluation)
+        for pid in expected:
+            np.testing.assert_allclose(moved[pid], expected[pid], rtol=0, atol=1e-12)
+
+
+def test_the_trilinear_and_affine_products_agree(chair, monkeypatch):
+    """Every part through the cage coordinates (no edit counts as affine) gives the same vertices."""
+    program = Program.from_text(CHAIR_ALL_PART_OPS)
+    evaluation = evaluate(program, chair, {"x": 0.6, "y": 0.3})
+    mixed = {k: v.copy() for k, v in CageDeformer().live(chair)(evaluation).items()}
+    monkeypatch.setattr(deform, "AFFINE_TOLERANCE", -1.0)
+    trilinear = CageDeformer().live(chair)(evaluation)
+    _assert_close_relative(trilinear, {k: v.astype(float) for k, v in mixed.items()}, rtol=1e-6)
+    _assert_close_relative(trilinear, _reference(chair, evaluation), rtol=1e-6)
+
+
+def test_live_deformation_recomputes_only_parts_whose_corners_moved(chair, monkeypatch):
+    program = Program.from_text(CHAIR_ALL_PART_OPS)
+    live = CageDeformer().live(chair)
+    first = live(evaluate(program, chair, {"x": 0.5, "y": 0.1}))
+    products: list[int] = []
+    real = LiveDeformation._deform
+    monkeypatch.setattr(LiveDeformation, "_deform",
+                        lambda self, cage, corners, out: products.append(len(out)) or real(self, cage, corners, out))
+    again = live(evaluate(program, chair, {"x": 0.5, "y": 0.1}))
+    assert products == [] and all(again[k] is first[k] for k in first)  # same values: nothing to do
+    # y moves leg.002, leg.003 and a corner of the seat (back_rail follows max(x, y) = x)
+    evaluation = evaluate(program, chair, {"x": 0.5, "y": 0.3})
+    moved = live(evaluation)
+    assert sorted(products) == sorted(len(chair.parts[p].mesh.vertices) for p in ("leg.002", "leg.003", "seat"))
+    _assert_close_relative(moved, _reference(chair, evaluation), rtol=1e-6)
+
+
+def test_live_deformation_follows_group_counts(row_shape):
+    program = Program.from_text("param n in [-2, 3] default 0\nchange_count(row, amount=n)")
+    live = CageDeformer().live(row_shape)
+    for n in (2, -1, 0, 3):
+        evaluation = evaluate(program, row_shape, {"n": n})
+        moved = live(evaluation)
+        assert sorted(moved) == sorted(_reference(row_shape, evaluation))
+        _assert_close_relative(moved, _reference(row_shape, evaluation), rtol=1e-6)
+
+
+def test_live_deformation_refuses_batches(cage_shape):
+    evaluation = evaluate(Program.from_text(CAGE_PROGRAM), cage_shape, {"x": np.array([0.1, 0.2])})
+    with pytest.raises(ParselError, match="batch of parameter values"):
+        CageDeformer().live(cage_shape)(evaluation)

@@ -49,10 +49,25 @@ def _fitting(length: float, size: float) -> float:
     return math.floor(length / size + 1e-9) if math.isfinite(length / size) else math.inf
 
 
+def translation_deviations(rest_members: Sequence[np.ndarray]) -> np.ndarray:
+    """How far each rest member is from a perfect copy of the first one step along (k, 8, 3).
+
+    Detected rows are rarely perfect (a ShapeAssembly shelf 1% shallower than the one
+    below it); a re-laid-out member keeps its own deviation, so a row laid out again at
+    its rest spacing is the rest row, and every member keeps its contacts.
+    """
+    rest = np.asarray(rest_members, dtype=float)
+    if len(rest) < 2:
+        return np.zeros_like(rest)
+    step = rest[1].mean(axis=0) - rest[0].mean(axis=0)
+    return rest - rest[0][None] - np.arange(len(rest))[:, None, None] * step
+
+
 def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
                        parent: np.ndarray, members: Sequence[np.ndarray],
                        ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
-    """Instances (n, 8, 3) of a translation group after its group ops."""
+    """Instances (n, 8, 3) of a translation group after its group ops; instance j < k carries
+    member j's own deviation from the perfect row (:func:`translation_deviations`)."""
     k = len(rest_members)
     first = members[0]
     template = first - first.mean(axis=0)
@@ -83,7 +98,10 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
                 step = step * (1.0 + amount)
     count = _checked_count(relation, count)
     offsets = start + np.arange(count)[:, None] * step
-    return template[None] + offsets[:, None, :]
+    instances = template[None] + offsets[:, None, :]
+    kept = min(count, k)
+    instances[:kept] += translation_deviations(rest_members)[:kept]
+    return instances
 
 
 def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent: np.ndarray,

@@ -130,7 +130,10 @@ def sample_errors(relation: Relation, corners: Mapping[str, np.ndarray], sliding
     if isinstance(relation, Attachment):
         members = [m for m in relation.members if m in sliding]
         if members:
-            return np.max([np.asarray(sliding_error(relation, corners, m), dtype=float) for m in members], axis=0)
+            # A laid-out member may slide along its contact, or stay where it was.
+            slide = np.max([np.asarray(sliding_error(relation, corners, m), dtype=float) for m in members], axis=0)
+            exact = np.asarray(relation.error(corners), dtype=float)
+            return np.where(np.isnan(exact), slide, np.fmin(exact, slide))
     errors = np.asarray(relation.error(corners), dtype=float)
     finite = errors[~np.isnan(errors)]  # removed members (NaN corners) are not checked
     error = float(finite.max()) if finite.size else 0.0

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from parsel_core import Hexahedron, Part, Program, ShapeGraph, compile_program, evaluate
-from parsel_core.relations import RotationSymmetry, rotation_matrix
+from parsel_core.relations import RotationSymmetry, TranslationSymmetry, rotation_matrix
 
 
 def centres_x(evaluation, group="slat_row"):
@@ -101,3 +101,48 @@ def test_sliding_contact_accepts_corners_of_different_batch_shapes(parsel_shape)
     assert errors.shape == (3,)
     assert errors[0] == pytest.approx(0) and errors[1] == pytest.approx(0)  # slid along the rail's top
     assert errors[2] > 0  # slid off its end (the rail stops at x = 0.425)
+
+
+def imperfect_row():
+    """Three boards one step of 0.5 apart, the middle one 0.01 deeper and 0.02 off its place,
+    each resting on a back rail (a point contact at its back edge)."""
+    from parsel_core.examples import attachment
+
+    boards = [Part("board0", "shelf", Hexahedron.from_bounds((0, 0.0, 0), (1, 0.1, 1))),
+              Part("board1", "shelf", Hexahedron.from_bounds((0, 0.52, 0), (1, 0.62, 1.01))),
+              Part("board2", "shelf", Hexahedron.from_bounds((0, 1.0, 0), (1, 1.1, 1)))]
+    rail = Part("rail", "frame", Hexahedron.from_bounds((0, -0.1, -0.1), (1, 1.2, 0)))
+    row = TranslationSymmetry("row", ("board0", "board1", "board2"), (0.0, 0.52, 0.0),
+                              tuple(tuple(range(8)) for _ in range(3)))
+    contacts = [attachment(f"on_rail_{b.id}", b, rail) for b in boards]
+    return ShapeGraph([*boards, rail], [row, *contacts])
+
+
+def test_a_re_laid_out_member_keeps_its_own_deviation_from_the_perfect_row():
+    from parsel_core.layout import translation_deviations
+
+    shape = imperfect_row()
+    rest = shape.rest_corners()
+    deviations = translation_deviations([rest[m] for m in ("board0", "board1", "board2")])
+    assert np.allclose(deviations[0], 0)
+    # the step (0, 0.52, 0.005) is read off board1's centre, so board1 deviates by its extra
+    # depth only and board2 by its place: 0.04 below and 0.01 behind two steps
+    assert np.allclose(deviations[1].mean(axis=0), 0) and np.allclose(np.abs(deviations[1][:, 2]), 0.005)
+    assert np.allclose(deviations[2], [0, -0.04, -0.01])
+    # adding two boards at the end: the three members are where they were, the new ones at the step
+    program = Program.from_text('param x in [0, 1]\nchange_count(row, amount=2*x, mode="bottom_up")')
+    laid = evaluate(program, shape, {"x": 1.0}).instances["row"]
+    assert len(laid) == 5
+    for j, member in enumerate(("board0", "board1", "board2")):
+        assert np.allclose(laid[j], rest[member], atol=1e-12)
+    step = np.array([0, 0.52, 0.005])
+    assert np.allclose(laid[3], rest["board0"] + 3 * step) and np.allclose(laid[4], rest["board0"] + 4 * step)
+
+
+def test_members_a_layout_leaves_in_place_keep_their_contacts():
+    from parsel_core.report import check_program
+
+    shape = imperfect_row()
+    program = Program.from_text('param x in [0, 1]\nchange_count(row, amount=2*x, mode="bottom_up")')
+    states = check_program(shape, program).states()
+    assert all(states[f"on_rail_board{j}"] == "kept" for j in range(3)), states

@@ -31,6 +31,7 @@ import numpy as np
 from parsel_core.cage import inverse_trilinear, point_weights
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
+from parsel_core.layout import translation_deviations
 from parsel_core.ops import (
     ChangeCount,
     ChangeDelta,
@@ -122,7 +123,8 @@ def _group_data(group_id: str, ops: list[tuple[int, GroupOp]], shape: ShapeGraph
         rest_step = centres[1] - centres[0] if len(members) > 1 else np.zeros(3)
         anchors = np.array([centres[0], centres[-1]])
         data.update(kind="translation", rest_step=rest_step.tolist(),
-                    anchor_weights=point_weights(rest[group_id], anchors).tolist())
+                    anchor_weights=point_weights(rest[group_id], anchors).tolist(),
+                    deviations=translation_deviations([rest[m] for m in members]).reshape(len(members), 24).tolist())
     elif isinstance(relation, RotationSymmetry):
         center = np.asarray(relation.center, dtype=float)
         axis = np.asarray(relation.axis, dtype=float)

@@ -121,7 +121,8 @@
   function norm(v) { return Math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
   function roundHalfUp(a) { return Math.floor(a + 0.5); }
 
-  /* parsel_core.layout.translation_layout: instances as an array of Float64Array(24). */
+  /* parsel_core.layout.translation_layout: instances as an array of Float64Array(24); instance j < k
+     carries member j's deviation from the perfect row (translation_deviations). */
   function translationLayout(g, parent, members, amounts) {
     var k = g.members.length, first = members[0], mean = centroid(first);
     var restStep = g.rest_step, count = k, start, step, i, j;
@@ -162,9 +163,11 @@
     }
     var out = [];
     for (j = 0; j < count; j++) {
-      var c = new Float64Array(24);
+      var c = new Float64Array(24), dev = j < k && g.deviations ? g.deviations[j] : null;
       for (var q = 0; q < 8; q++) {
-        for (var d = 0; d < 3; d++) c[3 * q + d] = first[3 * q + d] - mean[d] + (start[d] + j * step[d]);
+        for (var d = 0; d < 3; d++) {
+          c[3 * q + d] = first[3 * q + d] - mean[d] + (start[d] + j * step[d]) + (dev ? dev[3 * q + d] : 0);
+        }
       }
       out.push(c);
     }

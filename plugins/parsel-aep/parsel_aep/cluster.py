@@ -87,12 +87,14 @@ def aligned(hexahedron) -> bool:
 def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Mapping[str, np.ndarray],
                  corners: Mapping[str, np.ndarray], constraints: Sequence[Relation],
                  tolerance: float, frame: str = "local", shears: bool = False,
-                 translate_only: frozenset[str] = frozenset()) -> ClusterSystem:
+                 translate_only: frozenset[str] = frozenset(),
+                 members: Mapping[str, tuple[str, ...]] | None = None) -> ClusterSystem:
     """Residual slopes of every part's box basis against ``constraints``.
 
     ``corners``: (S, 8, 3) corners of every part at the samples with the cluster's parts
     at rest; ``rest``: (8, 3) rest corners; ``translate_only``: parts hinted to translate
-    (their other basis amounts are left out).
+    (their other basis amounts are left out); ``members``: for a repeated group edited
+    through its virtual parent, the parts its ops move (each the same point map).
     """
     def residuals(view) -> np.ndarray:
         blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
@@ -112,9 +114,10 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     column = 0
     for part in parts:
         compound = box_compound(part, hexahedra[part], frame, shears)
-        moved = np.stack([op.apply(rest[part], 1.0, np) for op in compound.basis])   # (Kp, 8, 3)
-        slopes.append(residuals({**still, part: moved}) - base)
-        moves = np.sqrt(((moved - rest[part]) ** 2).sum(axis=(-1, -2)) / 8.0)
+        targets = (members or {}).get(part, (part,))
+        moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}  # (Kp, 8, 3)
+        slopes.append(residuals({**still, **moved}) - base)
+        moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets) / (8.0 * len(targets)))
         if part in translate_only:  # a part hinted to translate keeps its shape
             moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)
         weights.append(moves)

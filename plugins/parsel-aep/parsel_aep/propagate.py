@@ -308,10 +308,11 @@ class Propagation:
     def joint_repair(self, state: _State) -> None:
         """Re-solve the parts around the relations still broken together (cluster.py).
 
-        The cluster starts with the editable members of the broken relations and grows by
-        a ring of neighbours at a time; the first cluster whose joint edit keeps every
-        relation is taken, else the one with the least total error, and only when it beats
-        the edits found part by part.
+        The cluster starts with the editable members of the broken relations (an intact
+        repeated group counts as one, edited through its virtual parent) and grows by a ring
+        of neighbours at a time; the first cluster whose joint edit keeps every relation is
+        taken, else the one with the least total error, and only when it beats the edits
+        found part by part.
         """
         damage = self.damage(state.ops)
         if damage[1] == 0:
@@ -319,27 +320,39 @@ class Propagation:
         fixed = state.seeded | {p for p, hint in self.hints.items() if hint == "keep"}
         corners = self.corners(state.ops)
         sliding = sliding_members(self.shape, self.program(state.ops))
+        allowed = (None, "translate", "scale")
 
-        def editable(m: str) -> bool:
-            return (m in self.shape.parts and m not in fixed and m not in sliding and not self.shape.groups_of(m)
-                    and self.hints.get(m) in (None, "translate", "scale"))
+        def unit(m: str) -> str | None:
+            """The part or intact group that the joint pass edits for part ``m``."""
+            if m not in self.shape.parts or m in fixed or m in sliding:
+                return None
+            groups = self.shape.groups_of(m)
+            if not groups:
+                return m if self.hints.get(m) in allowed else None
+            for group in groups:
+                members = set(self.shape.relations[group].members)
+                if (group not in self.breaks and group not in fixed and not members & fixed
+                        and not members & sliding and self.hints.get(group) in allowed):
+                    return group
+            return None
 
-        cluster = {m for r in self.relations if not self.holds(r, corners, sliding) for m in r.members
-                   if editable(m)}
+        units = {u for r in self.relations if not self.holds(r, corners, sliding) for m in r.members
+                 if (u := unit(m)) is not None}
         best = (damage, None)
         for ring in range(self.options.joint):
             if ring:
-                grown = cluster | {n for m in cluster for n in self.shape.neighbours(m) if editable(n)}
-                if grown == cluster:
+                grown = units | {u for v in units for m in self.unit_members(v) for n in self.shape.neighbours(m)
+                                 if (u := unit(n)) is not None}
+                if grown == units:
                     break
-                cluster = grown
-            if not cluster:
+                units = grown
+            if not units:
                 break
             # Parts turned with a rotated neighbour cannot be redone by scalings and
             # translations: the cluster is also tried with their edits kept.
-            turned = {p for p in cluster if any(op.operand == p and op.name not in BOX_OPS for op in state.ops)}
+            turned = {u for u in units if any(op.operand == u and op.name not in BOX_OPS for op in state.ops)}
             for shears in (False, True):
-                for parts in [cluster] + ([cluster - turned] if turned and cluster - turned else []):
+                for parts in [units] + ([units - turned] if turned and units - turned else []):
                     frames = ["local"] + (["world"] if not all(
                         cluster_module.aligned(self.shape.part(p).hexahedron) for p in parts) else [])
                     for frame in frames:
@@ -357,21 +370,32 @@ class Propagation:
             state.ops = best[1]
             state.stats["joint_repairs"] = state.stats.get("joint_repairs", 0) + 1
 
+    def unit_members(self, unit: str) -> tuple[str, ...]:
+        """The parts an op on ``unit`` moves: the part itself, or a group's members."""
+        if unit in self.shape.virtual_parents:
+            return tuple(self.shape.relations[unit].members)
+        return (unit,)
+
     def cluster_edit(self, state: _State, parts: list[str], frame: str = "local",
                      shears: bool = False) -> list[EditOp] | None:
-        """The program with ``parts``' edits replaced by their joint least-squares edit."""
+        """The program with ``parts``' edits replaced by their joint least-squares edit
+        (``parts`` may name intact groups, edited through their virtual parents)."""
         clock = time.perf_counter()
-        members = set(parts)
-        others_ops = [op for op in state.ops if op.operand not in members]
+        units = set(parts)
+        targets = {u: self.unit_members(u) for u in parts}
+        members = {m for ms in targets.values() for m in ms}
+        others_ops = [op for op in state.ops if op.operand not in units]
         corners = self.corners(others_ops)
         sliding = sliding_members(self.shape, self.program(others_ops))
-        constraints = [r for r in self.relations if set(r.members) & members and not set(r.members) & sliding]
+        constraints = [r for r in self.relations if set(r.members) & members and not set(r.members) & sliding
+                       and r.id not in units]
         if not constraints:
             return None
         hexahedra = {p: self.shape.part(p).hexahedron for p in parts}
         system = cluster_module.build_system(parts, hexahedra, self.rest, corners, constraints, self.tolerance,
                                              frame, shears,
-                                             frozenset(p for p in parts if self.hints.get(p) == "translate"))
+                                             frozenset(p for p in parts if self.hints.get(p) == "translate"),
+                                             targets)
         f, matrix, kept = cluster_module.solve(system)
         if len(kept) < len(constraints) and not self.options.breaking:
             return None  # giving up relations is a breaking-edit
@@ -380,7 +404,7 @@ class Propagation:
         kept_constraints = [constraints[i] for i in kept]
         outside = sorted({m for r in kept_constraints for m in r.members if m not in members})
         symbolic = symbolic_corners(self.program(others_ops), self.shape, self.backend, only=outside)
-        residual = symbolic_residual(kept_constraints, {**symbolic, **{p: self.rest[p] for p in parts}})
+        residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in members}})
         new_ops: list[EditOp] = []
         for _part, op, weights in cluster_module.part_terms(system, f, self.shape.size):
             expected = f @ weights
@@ -401,7 +425,7 @@ class Propagation:
         # As in ranking (selection.py): no part may be distorted beyond the threshold at the
         # end of the range (a leg widened 18-fold to reach a rail that was kept fixed).
         edited = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs[-1:]}).parts
-        if any(arap_energies(self.rest[p], edited[p][-1:])[0] > HIGH_DISTORTION for p in parts):
+        if any(arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION for m in members):
             return None
         return ops
 

@@ -115,6 +115,21 @@ class _State:
             self.losses.setdefault(rid, (reason, part))
 
 
+@dataclass
+class _Cluster:
+    """A joint edit of the joint pass, solved numerically (closed forms still to derive)."""
+
+    parts: list[str]
+    members: set[str]
+    system: Any
+    f: np.ndarray
+    matrix: np.ndarray
+    kept: list[int]
+    others_ops: list[EditOp]
+    constraints: list[Relation]
+    score: tuple
+
+
 def validate_request(request: SolveRequest) -> None:
     """Unknown parts, relations or hint types are one-line errors naming them."""
     shape = request.shape
@@ -309,10 +324,13 @@ class Propagation:
         """Re-solve the parts around the relations still broken together (cluster.py).
 
         The cluster starts with the editable members of the broken relations (an intact
-        repeated group counts as one, edited through its virtual parent) and grows by a ring
-        of neighbours at a time; the first cluster whose joint edit keeps every relation is
-        taken, else the one with the least total error, and only when it beats the edits
-        found part by part.
+        repeated group counts as one, edited through its virtual parent, and is also tried
+        member by member) and grows by a ring of neighbours at a time. Every variant of a
+        ring (own or world axes, with or without shears, turned parts kept) is solved
+        numerically; the most promising are derived in closed form and checked on the
+        whole shape. The first cluster whose joint edit keeps every relation is taken, else
+        the one with the least total error, and only when it beats the edits found part by
+        part.
         """
         damage = self.damage(state.ops)
         if damage[1] == 0:
@@ -351,17 +369,29 @@ class Propagation:
             # Parts turned with a rotated neighbour cannot be redone by scalings and
             # translations: the cluster is also tried with their edits kept.
             turned = {u for u in units if any(op.operand == u and op.name not in BOX_OPS for op in state.ops)}
+            groups = {u for u in units if u in self.shape.virtual_parents}
+            part_sets = [units]
+            if turned and units - turned:
+                part_sets.append(units - turned)
+            if groups and all(self.hints.get(m) in allowed for g in groups for m in self.unit_members(g)):
+                part_sets.append((units - groups) | {m for g in groups for m in self.unit_members(g)})
+            solved = []
             for shears in (False, True):
-                for parts in [units] + ([units - turned] if turned and units - turned else []):
+                for parts in part_sets:
                     frames = ["local"] + (["world"] if not all(
                         cluster_module.aligned(self.shape.part(p).hexahedron) for p in parts) else [])
                     for frame in frames:
-                        ops = self.cluster_edit(state, sorted(parts), frame, shears)
-                        if ops is None:
-                            continue
-                        trial = self.damage(ops)
-                        if trial[0] < best[0][0] - self.tolerance:
-                            best = (trial, ops)
+                        found = self.cluster_solve(state, sorted(parts), frame, shears)
+                        if found is not None:
+                            solved.append(found)
+            # The numerically most promising variants are derived and checked in full.
+            for found in sorted(solved, key=lambda v: v.score)[:3]:
+                ops = self.cluster_ops(state, found)
+                if ops is None:
+                    continue
+                trial = self.damage(ops)
+                if trial[0] < best[0][0] - self.tolerance:
+                    best = (trial, ops)
                 if best[0][1] == 0:
                     break
             if best[0][1] == 0:
@@ -376,10 +406,9 @@ class Propagation:
             return tuple(self.shape.relations[unit].members)
         return (unit,)
 
-    def cluster_edit(self, state: _State, parts: list[str], frame: str = "local",
-                     shears: bool = False) -> list[EditOp] | None:
-        """The program with ``parts``' edits replaced by their joint least-squares edit
-        (``parts`` may name intact groups, edited through their virtual parents)."""
+    def cluster_solve(self, state: _State, parts: list[str], frame: str = "local",
+                      shears: bool = False) -> _Cluster | None:
+        """The joint least-squares edit of ``parts`` (parts or intact groups), numerically."""
         clock = time.perf_counter()
         units = set(parts)
         targets = {u: self.unit_members(u) for u in parts}
@@ -397,35 +426,47 @@ class Propagation:
                                              frozenset(p for p in parts if self.hints.get(p) == "translate"),
                                              targets)
         f, matrix, kept = cluster_module.solve(system)
+        state.stats["time_s"]["screen"] += time.perf_counter() - clock
         if len(kept) < len(constraints) and not self.options.breaking:
             return None  # giving up relations is a breaking-edit
-        state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        errors = cluster_module.relation_errors(system, f)
+        dropped = [i for i in range(len(constraints)) if i not in set(kept)]
+        score = (len(dropped), float(sum(errors[i] for i in dropped)), shears, frame != "local")
+        return _Cluster(parts, members, system, f, matrix, kept, others_ops, constraints, score)
+
+    def cluster_ops(self, state: _State, found: _Cluster) -> list[EditOp] | None:
+        """The program with the cluster's edits replaced by its joint edit, amounts in closed form."""
         clock = time.perf_counter()
-        kept_constraints = [constraints[i] for i in kept]
-        outside = sorted({m for r in kept_constraints for m in r.members if m not in members})
-        symbolic = symbolic_corners(self.program(others_ops), self.shape, self.backend, only=outside)
-        residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in members}})
+        kept_constraints = [found.constraints[i] for i in found.kept]
+        outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
+        symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)
+        residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
+        x = self.parameter.name
         new_ops: list[EditOp] = []
-        for _part, op, weights in cluster_module.part_terms(system, f, self.shape.size):
-            expected = f @ weights
+        for _part, op, weights in cluster_module.part_terms(found.system, found.f, self.shape.size):
+            expected = found.f @ weights
             if np.abs(expected).max() < 1e-7 * (self.shape.size if op.name == "translate" else 1.0):
                 continue
-            expr = self.backend.expand(linear_combination(self.backend, -(weights @ matrix), residual))
+            expr = self.backend.expand(linear_combination(self.backend, -(weights @ found.matrix), residual))
             try:
+                # round-off at rest (1e-9 where the amount should be 0) is not part of the edit
+                at_rest = self.backend.to_float(self.backend.subs(expr, {x: self.backend.number(0.0)}))
+                if 0 < abs(at_rest) < 1e-7 * max(1.0, float(np.abs(expected).max())):
+                    expr = self.backend.expand(expr - self.backend.number(at_rest))
                 text = amount_text(self.backend, expr)
-                values = evaluate_amount(text, self.parameter.name, self.xs)
-            except (ParselError, ValueError):
+                values = evaluate_amount(text, x, self.xs)
+            except (ParselError, ValueError, TypeError):
                 return None
             if not np.allclose(values, expected, atol=1e-6 * max(1.0, float(np.abs(expected).max()))):
                 return None
             if text != "0":
                 new_ops.append(dataclasses.replace(op, amount=text))
         state.stats["time_s"]["derive"] += time.perf_counter() - clock
-        ops = others_ops + new_ops
+        ops = found.others_ops + new_ops
         # As in ranking (selection.py): no part may be distorted beyond the threshold at the
         # end of the range (a leg widened 18-fold to reach a rail that was kept fixed).
-        edited = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs[-1:]}).parts
-        if any(arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION for m in members):
+        edited = evaluate(self.program(ops), self.shape, {x: self.xs[-1:]}).parts
+        if any(arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION for m in found.members):
             return None
         return ops
 

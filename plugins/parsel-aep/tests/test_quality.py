@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from parsel_aep.compound import Compound, compound_candidates, simplify
+from parsel_aep.derive import evaluate_amount
 from parsel_aep.propagate import propagate
 from parsel_core import Program
 from parsel_core.errors import ParselError
@@ -134,3 +135,62 @@ def test_a_seed_on_a_group_member_next_to_a_group_gives_no_feature_op_on_a_virtu
             program = propagate(SolveRequest(shape, Program.from_text(seed))).program
             program.validate(shape)
             assert not [op for op in program.ops if op.operand in shape.virtual_parents and op.feature]
+
+
+JOINT = Path(__file__).resolve().parent / "fixtures"
+
+
+def joint_case(name: str, seed: str, **options):
+    shape = load_shape(str(JOINT / f"{name}.txt"))
+    result = propagate(SolveRequest(shape, Program.from_text(seed), options=options))
+    return shape, result, check_program(shape, result.program)
+
+
+def test_legs_under_a_seat_widened_off_their_mirror_plane_each_move_out_by_their_own_amount():
+    """chair/2436: each leg's contact with the seat asks for its own outward move (they differ
+    by 0.0013 x); the front and back legs stay mirrored within the 1.2% their mirror pair
+    was detected at, and the legs only translate."""
+    seed = "scale_1d('cube1', origin=(0.00174, -0.055013, 0.000865), dir=(1, 0, 0), amount=0.5*x)"
+    shape, result, report = joint_case("chair_2436", seed)
+    assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
+    legs = [p for p in shape.parts if p.startswith("Program_1/")]
+    assert {op.name for op in result.program.ops if op.operand in legs} == {"translate"}
+    moves = {op.operand: evaluate_amount(op.amount, "x", np.array([1.0]))[0] * op.dir[0]
+             for op in result.program.ops if op.operand in legs}
+    assert moves["Program_1/cube0"] < 0 < moves["Program_1/cube0_ref"]
+    assert moves["Program_1/cube0"] != pytest.approx(moves["Program_1/cube1"], abs=1e-4)
+    # part by part (no joint pass) the mirrored legs' moves conflict with their contacts
+    _, without, _ = joint_case("chair_2436", seed, joint=0)
+    assert without.rejected
+
+
+def test_stretchers_between_legs_of_different_heights_tilt_with_them():
+    """chair/1746: legs of heights 0.547-0.563 lengthened to meet the seat: the stretchers
+    between them must tilt (a shear) to keep both ends attached."""
+    seed = "scale_1d('Program_1/cube0', origin=(-0.305769, -0.776424, -0.295568), dir=(0, 1, 0), amount=0.5*x)"
+    _, result, report = joint_case("chair_1746", seed)
+    assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
+    assert any(op.name == "shear" for op in result.program.ops)
+    assert result.stats["joint_repairs"] == 1
+
+
+def test_the_joint_system_of_an_attached_part_is_a_translation_only():
+    """A box point-attached to a translated neighbour: the least costed edit keeping the
+    contact is the same translation (no scaling, no shear), solved exactly."""
+    from parsel_aep import cluster
+    from parsel_core.relations import Attachment
+
+    a, b = box((0, 0, 0), (1, 1, 1)), box((1, 0, 0), (2, 1, 1))
+    contact = Attachment("ab", ("a", "b"), weights_a=((0, 0, 0, 0, 0.25, 0.25, 0.25, 0.25),),
+                         weights_b=((0.25, 0.25, 0.25, 0.25, 0, 0, 0, 0),))
+    xs = np.linspace(0, 1, 5)
+    moved = a.corners[None] + xs[:, None, None] * np.array([0.3, 0.1, 0.0])
+    corners = {"a": moved, "b": np.broadcast_to(b.corners, moved.shape)}
+    system = cluster.build_system(["b"], {"b": b}, {"a": a.corners, "b": b.corners}, corners, [contact], 1e-6,
+                                  shears=True)
+    f, _, kept = cluster.solve(system)
+    assert kept == [0]
+    terms = cluster.part_terms(system, f, 2.0)
+    assert [op.name for _, op, _ in terms] == ["translate"]
+    _, op, weights = terms[0]
+    assert np.asarray(op.dir) * (f @ weights)[-1] == pytest.approx([0.3, 0.1, 0.0])

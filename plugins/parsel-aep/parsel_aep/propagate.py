@@ -77,7 +77,7 @@ class AEPOptions:
     #: Passes of the second look at parts decided too early (0 turns it off).
     repair: int = 2
     #: Whether that second look may also take breaking-edits that lower the total error.
-    repair_breaking: bool = True
+    repair_breaking: bool = False
     #: Rings of neighbours around the broken relations solved jointly (cluster.py; 0: off).
     joint: int = 3
 

@@ -29,6 +29,7 @@ import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import AXES, Compound, simplify
+from parsel_aep.screening import residual_slices
 from parsel_core.ops import Scale1D, Scale3D, Shear, Translate
 from parsel_core.relations import Relation
 
@@ -105,11 +106,7 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     r0 = np.nan_to_num(residuals({m: corners[m] for m in involved}), nan=0.0, posinf=0.0, neginf=0.0)
     still = {m: rest[m][None] for m in involved}
     base = residuals(still)[0]
-    slices, start = [], 0
-    for r in constraints:
-        size = np.asarray(r.residual({m: rest[m] for m in r.members})).shape[-1]
-        slices.append(slice(start, start + size))
-        start += size
+    slices = residual_slices(constraints, rest)
     compounds, blocks, slopes, weights, costs = [], [], [], [], []
     column = 0
     for part in parts:

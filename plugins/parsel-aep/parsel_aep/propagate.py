@@ -45,7 +45,7 @@ from parsel_aep.derive import (
     simpler_equivalent,
     symbolic_residual,
 )
-from parsel_aep.screening import Screened, compound_solver, screen
+from parsel_aep.screening import Screened, compound_solver, residual_slices, screen
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
@@ -817,7 +817,7 @@ class Propagation:
         others = sorted({m for r in kept for m in r.members if m not in rest})
         symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
         residual = symbolic_residual(kept, {**symbolic, **rest})
-        columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(self._slices(constraints, rest),
+        columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(residual_slices(constraints, self.rest),
                                                                             constraints) if r.id not in broken])
         return residual, columns
 
@@ -891,15 +891,6 @@ class Propagation:
                 ops.append(dataclasses.replace(term.op, amount=text))
         state.stats["time_s"]["derive"] += time.perf_counter() - clock
         return ops
-
-    def _slices(self, constraints, rest):
-        out, start = [], 0
-        sample = {pid: c for pid, c in self.rest.items()}
-        for r in constraints:
-            size = np.asarray(r.residual(sample)).shape[-1]
-            out.append(slice(start, start + size))
-            start += size
-        return out
 
     @staticmethod
     def _offset(screened: Screened, columns) -> np.ndarray:

@@ -53,7 +53,8 @@ def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray])
     return np.concatenate([np.asarray(r.residual(corners), dtype=float) for r in relations], axis=-1)
 
 
-def _slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> list[slice]:
+def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> list[slice]:
+    """Each relation's columns in the concatenated residual (corners of any batch shape)."""
     out, start = [], 0
     for r in relations:
         size = np.asarray(r.residual(corners)).shape[-1]
@@ -96,7 +97,7 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     first = {pid: c[:1][None] for pid, c in others.items()}                     # (1, 1, 8, 3)
     rest_one = {p: c[None, None] for p, c in moving.items()}
     base = _residuals(constraints, {**first, **rest_one})[0, 0]                  # (K,)
-    slices = _slices(constraints, {**first, **rest_one})
+    slices = residual_slices(constraints, {**first, **rest_one})
 
     def residual_at(ops, amount):
         moved = {pid: _apply_all(ops, c, amount)[:, None] for pid, c in moving.items()}

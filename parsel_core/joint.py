@@ -7,7 +7,10 @@ layers (:meth:`Program.plus`): every relation is linear in the corners and holds
 rest, so the sum of displacements that each keep a relation keeps it too, exactly, over
 the whole box of ranges (docs/aep.md, "Several parameters"). What a sum does not inherit
 is non-degeneracy (two shrinking edits of one part may collapse it together), so a new
-layer's range is narrowed until no part degenerates anywhere in the box.
+layer's range is narrowed until no part degenerates anywhere in the box. Nor does a sum
+inherit what a layer keeps only by sliding a contact or laying out a row, so a new layer
+that breaks, together with the earlier ones, a relation each of them keeps alone is
+refused (:func:`joint_losses`).
 """
 
 from __future__ import annotations
@@ -143,6 +146,42 @@ def fit_joint_range(shape: ShapeGraph, program: Program, name: str, steps: int =
     return result
 
 
+#: Random joint samples (besides every box corner) at which a new layer must keep, together with
+#: the earlier ones, each relation every slider keeps alone; what ``parsel check`` samples too.
+JOINT_CHECK_SAMPLES = 200
+
+
+def joint_losses(shape: ShapeGraph, program: Program, samples: int = JOINT_CHECK_SAMPLES) -> list[Any]:
+    """Relations every slider of ``program`` keeps alone that some joint sample breaks: every
+    corner of the box of ranges and ``samples`` random points (the relation states of
+    :func:`parsel_core.report.check_program`, each with its worst sample)."""
+    from parsel_core.report import check_program, kept_alone  # the report samples with this module
+
+    if len(program.parameters) < 2:
+        return []
+    must = kept_alone(shape, program)
+    report = check_program(shape, program, samples=samples)
+    return [s for s in report.relations if s.id in must and s.state != "kept"]
+
+
+def check_joint_relations(shape: ShapeGraph, base: Program, program: Program, name: str, request: str) -> None:
+    """Refuse a layer that, added to ``base``, breaks a relation that it and every earlier layer
+    keep alone (losses ``base`` already had are not the new layer's).
+
+    Linear residuals add exactly; what does not add is a contact a layer keeps only by sliding,
+    or a layout, next to another layer that turns the same parts: the sum is not a valid edit,
+    and no range of the new slider short of nothing keeps it."""
+    before = {s.id for s in joint_losses(shape, base)}
+    lost = [s for s in joint_losses(shape, program) if s.id not in before]
+    if not lost:
+        return
+    worst = max(lost, key=lambda s: s.max_error)
+    at = ", ".join(f"{k}={v:.3g}" for k, v in (worst.worst_at or {}).items())
+    names = ", ".join(f"{s.id} ({' on '.join(s.members)})" for s in lost)
+    raise ParselError(f"request {request!r} ({name}) breaks {names} together with the earlier sliders, though "
+                      f"each slider keeps it alone (error {worst.max_error:.3g} at {at}); the edits do not add")
+
+
 def fresh_name(program: Program, prefix: str = "x") -> str:
     """A parameter name the program does not use: ``x<k>`` with k one past its parameter count."""
     used = set(program.parameter_names)
@@ -183,7 +222,8 @@ def check_layouts(base: Program | None, layer: Program, request: str) -> None:
 def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: str,
               name: str | None = None) -> tuple[Program, str]:
     """``layer`` (one request's program, solved on the rest shape) added to ``base`` as a new
-    layer with its own parameter, the range narrowed where the sum would collapse a part.
+    layer with its own parameter, the range narrowed where the sum would collapse a part;
+    refused (:class:`ParselError`) where the sum breaks a relation each slider keeps alone.
 
     Returns the program and the new parameter's name. The metadata's ``requests`` list which
     request each parameter came from (the slider page labels its sliders with them)."""
@@ -200,6 +240,7 @@ def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: 
             raise ParselError(f"parameter {name!r} is already one of the program's ({', '.join(base.parameter_names)})")
         program = base.plus(layer.renamed(layer.parameters[0].name, name))
         program = fit_joint_range(shape, program, name)
+        check_joint_relations(shape, base, program, name, request)
     meta: dict[str, Any] = {key: value for key, value in dict(base.metadata if base is not None else {}).items()
                             if key not in ("request", "seed", "requests")}
     meta.update({"shape": shape.name, "requests": base_requests + [{"request": request, "parameter": name}]})

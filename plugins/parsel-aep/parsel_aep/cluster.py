@@ -113,7 +113,8 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
         compound = box_compound(part, hexahedra[part], frame, shears)
         targets = (members or {}).get(part, (part,))
         moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}  # (Kp, 8, 3)
-        slopes.append(residuals({**still, **moved}) - base)
+        # (a part that none of the constraints reads gets zero slopes, not a missing block)
+        slopes.append(np.broadcast_to(residuals({**still, **moved}) - base, (compound.size, len(base))))
         moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets) / (8.0 * len(targets)))
         if part in translate_only:  # a part hinted to translate keeps its shape
             moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)

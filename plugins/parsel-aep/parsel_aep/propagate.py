@@ -425,7 +425,10 @@ class Propagation:
                                              frame, shears,
                                              frozenset(p for p in parts if self.hints.get(p) == "translate"),
                                              targets)
-        f, matrix, kept = cluster_module.solve(system)
+        try:
+            f, matrix, kept = cluster_module.solve(system)
+        except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
+            return None
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         if len(kept) < len(constraints) and not self.options.breaking:
             return None  # giving up relations is a breaking-edit

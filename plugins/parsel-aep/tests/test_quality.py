@@ -194,3 +194,23 @@ def test_the_joint_system_of_an_attached_part_is_a_translation_only():
     assert [op.name for _, op, _ in terms] == ["translate"]
     _, op, weights = terms[0]
     assert np.asarray(op.dir) * (f @ weights)[-1] == pytest.approx([0.3, 0.1, 0.0])
+
+
+def test_a_cluster_part_no_constraint_reads_gets_zero_amounts():
+    """A cluster may hold a part whose relations all involve re-laid-out members (left out
+    of the system): its basis amounts have zero slopes and stay zero."""
+    from parsel_aep import cluster
+    from parsel_core.relations import Attachment
+
+    a, b, c = box((0, 0, 0), (1, 1, 1)), box((1, 0, 0), (2, 1, 1)), box((5, 0, 0), (6, 1, 1))
+    contact = Attachment("ab", ("a", "b"), weights_a=((0, 0, 0, 0, 0.25, 0.25, 0.25, 0.25),),
+                         weights_b=((0.25, 0.25, 0.25, 0.25, 0, 0, 0, 0),))
+    xs = np.linspace(0, 1, 3)
+    moved = a.corners[None] + xs[:, None, None] * np.array([0.3, 0.0, 0.0])
+    corners = {"a": moved, "b": np.broadcast_to(b.corners, moved.shape), "c": np.broadcast_to(c.corners, moved.shape)}
+    rest = {"a": a.corners, "b": b.corners, "c": c.corners}
+    system = cluster.build_system(["b", "c"], {"b": b, "c": c}, rest, corners, [contact], 1e-6)
+    assert system.slopes.shape == (len(system.weights), 3)
+    f, _, kept = cluster.solve(system)
+    assert kept == [0]
+    assert np.allclose(f[:, system.blocks[1]], 0)

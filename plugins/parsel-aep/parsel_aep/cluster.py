@@ -28,9 +28,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from parsel_aep.candidates import _vec
-from parsel_aep.compound import AXES, Compound, simplify
+from parsel_aep.compound import Compound, orthogonal_axes, simplify, translations
 from parsel_aep.screening import residual_slices
-from parsel_core.ops import Scale1D, Scale3D, Shear, Translate
+from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
 
 #: A basis amount moving a part less than this fraction of the shape's size is left out.
@@ -68,16 +68,15 @@ def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = Fal
     measures; the scalings and shears of one part are rarely both needed.)
     """
     c = _vec(hexahedron.center)
-    moves = tuple(Translate(part, "f", dir=axis) for axis in AXES)
-    axes = np.eye(3) if frame == "world" else np.asarray(hexahedron.local_axes, dtype=float)
-    if frame != "world" and not all(abs(float(axes[i] @ axes[j])) < 1e-6 for i in range(3) for j in range(i + 1, 3)):
+    axes = list(np.eye(3)) if frame == "world" else orthogonal_axes(hexahedron)
+    if axes is None:
         scales: tuple = (Scale3D(part, "f", origin=c),)
-        axes = np.eye(3)
+        axes = list(np.eye(3))
     else:
         scales = tuple(Scale1D(part, "f", origin=c, dir=_vec(a)) for a in axes)
     tilts = tuple(Shear(part, "f", origin=c, normal=_vec(axes[i]), dir=_vec(axes[j]))
                   for i in range(3) for j in range(3) if i != j) if shears else ()
-    return Compound(part, (*scales, *tilts, *moves), "free_box")
+    return Compound(part, (*scales, *tilts, *translations(part)), "free_box")
 
 
 def aligned(hexahedron) -> bool:
@@ -128,10 +127,20 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
                          np.array([r.allowance(tolerance) for r in constraints]))
 
 
+def _costed(system: ClusterSystem) -> np.ndarray:
+    """``displacement x cost`` per basis amount, 0 for amounts that move nothing."""
+    return np.where(system.weights > _NEGLIGIBLE, system.weights * system.costs, 0.0)
+
+
 def _prior(system: ClusterSystem) -> np.ndarray:
     """``1 / (displacement x cost)`` per basis amount: what the least-squares solution weighs."""
-    c = system.weights * system.costs
-    return np.where(system.weights > _NEGLIGIBLE, 1.0 / np.where(c > 0, c, 1.0), 0.0)
+    c = _costed(system)
+    return np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), 0.0)
+
+
+def _amounts(system: ClusterSystem, matrix: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``f = -M r0`` at every sample (S, B) for a solver ``M`` over the residual ``columns``."""
+    return -(matrix @ system.r0[:, columns].T).T
 
 
 def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None = None,
@@ -178,7 +187,7 @@ def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
     for _ in range(iterations):
         weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
         rows = np.repeat(weight / np.sqrt(sizes), sizes)
-        f = -(solver(system, columns, rows) @ system.r0[:, columns].T).T
+        f = _amounts(system, solver(system, columns, rows), columns)
         relative = relation_errors(system, f) / system.allowances
     return [i for i in everything if relative[i] < 1.0]
 
@@ -197,7 +206,7 @@ def _drop_until_kept(system: ClusterSystem, kept: list[int]) -> tuple[np.ndarray
     while True:
         columns = _columns(system, kept)
         matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
-        f = -(matrix @ system.r0[:, columns].T).T
+        f = _amounts(system, matrix, columns)
         errors = relation_errors(system, f)
         over = [(errors[i] / system.allowances[i], i) for i in kept if not errors[i] < system.allowances[i]]
         if not over:
@@ -215,22 +224,21 @@ def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray,
     unneeded amounts to zero; those are left out and the rest solved again exactly.
     """
     columns = _columns(system, kept)
-    base = _prior(system)
-    c = np.where(base > 0, 1.0 / np.where(base > 0, base, 1.0), 0.0)
+    rows = _row_weights(system, kept)
+    base, c = _prior(system), _costed(system)
     g = np.abs(f * c).max(axis=0)
     if not g.max() > 0:
         return None
     for _ in range(iterations):
-        matrix = solver(system, columns, _row_weights(system, kept),
-                        prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
-        g = np.abs(-(matrix @ system.r0[:, columns].T).T * c).max(axis=0)
+        matrix = solver(system, columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
+        g = np.abs(_amounts(system, matrix, columns) * c).max(axis=0)
         if not g.max() > 0:
             return None
     # The amounts left small are dropped, boldly first; the rest is solved again exactly.
     for threshold in (1e-2, 1e-4, 1e-6):
         prior = np.where(g > threshold * g.max(), base, 0.0)
-        matrix = solver(system, columns, _row_weights(system, kept), prior=prior)
-        f = -(matrix @ system.r0[:, columns].T).T
+        matrix = solver(system, columns, rows, prior=prior)
+        f = _amounts(system, matrix, columns)
         errors = relation_errors(system, f)
         if all(errors[i] < system.allowances[i] for i in kept):
             return f, matrix

@@ -56,24 +56,33 @@ class Compound:
         return out
 
 
-def _translations(part: str) -> tuple[EditOp, ...]:
+def translations(part: str) -> tuple[EditOp, ...]:
+    """Translations of ``part`` along the global axes (the last basis ops of a compound)."""
     return tuple(Translate(part, "f", dir=axis) for axis in AXES)
+
+
+def orthogonal_axes(hexahedron: Hexahedron) -> list[np.ndarray] | None:
+    """The part's unit local axes when they are orthogonal (a box), else ``None``."""
+    axes = [np.asarray(a, dtype=float) for a in hexahedron.local_axes]
+    axes = [a / np.linalg.norm(a) for a in axes]
+    if all(abs(float(axes[i] @ axes[j])) < 1e-6 for i in range(3) for j in range(i + 1, 3)):
+        return axes
+    return None
 
 
 def compound_candidates(part: str, hexahedron: Hexahedron, directions: Sequence[np.ndarray],
                         hint: str | None = None) -> list[Compound]:
     """Free-direction translation and free-origin scalings of ``part``, filtered by a hint."""
     c = _vec(hexahedron.center)
-    moves = _translations(part)
+    moves = translations(part)
     out: list[Compound] = []
     if hint in (None, "translate"):
         out.append(Compound(part, moves, "free_translate"))
     if hint in (None, "scale"):
         for d in directions:
             out.append(Compound(part, (Scale1D(part, "f", origin=c, dir=_vec(d)), *moves), "free_scale_1d"))
-        axes = [np.asarray(a, dtype=float) for a in hexahedron.local_axes]
-        axes = [a / np.linalg.norm(a) for a in axes]
-        if all(abs(float(axes[i] @ axes[j])) < 1e-6 for i in range(3) for j in range(i + 1, 3)):
+        axes = orthogonal_axes(hexahedron)
+        if axes is not None:
             for i in range(3):
                 pair = [axes[j] for j in range(3) if j != i]
                 out.append(Compound(part, (*(Scale1D(part, "f", origin=c, dir=_vec(a)) for a in pair), *moves),

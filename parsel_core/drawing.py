@@ -106,13 +106,14 @@ def set_camera(ax, mid: np.ndarray, radius: float, *, zoom: float = 1.0, elev: f
 PICTURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
 
-def picture_format(path: Path) -> str:
-    """The matplotlib format a picture file's suffix asks for; an unknown suffix is an error."""
+def picture_format(path: Path, formats: Mapping[str, str] = PICTURE_FORMATS) -> str:
+    """The format a picture file's suffix asks for among ``formats`` (suffix -> format);
+    an unknown suffix is an error naming the file and the known ones."""
     suffix = path.suffix.lower()
-    if suffix not in PICTURE_FORMATS:
+    if suffix not in formats:
         raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
-                          f"(known: {', '.join(sorted(PICTURE_FORMATS))})")
-    return PICTURE_FORMATS[suffix]
+                          f"(known: {', '.join(sorted(formats))})")
+    return formats[suffix]
 
 
 def save_shape_png(shape: ShapeGraph, path: Path | str, corners: Mapping[str, np.ndarray] | None = None) -> None:

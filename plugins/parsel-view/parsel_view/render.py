@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.drawing import PICTURE_FORMATS, PLOT_AXES, set_camera
+from parsel_core.drawing import PICTURE_FORMATS, PLOT_AXES, picture_format, set_camera
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import FACE_TRIANGLES
@@ -85,11 +85,7 @@ def frame_geometry(shape: ShapeGraph, evaluation: Evaluation, remesh: bool = Fal
 
 def filmstrip_format(path: Path) -> str:
     """The format a filmstrip path's suffix asks for (a picture format or ``gif``)."""
-    suffix = path.suffix.lower()
-    if suffix not in FILMSTRIP_FORMATS:
-        raise ParselError(f"{path}: unknown picture format {suffix or '(none)'!r} "
-                          f"(known: {', '.join(sorted(FILMSTRIP_FORMATS))})")
-    return FILMSTRIP_FORMATS[suffix]
+    return picture_format(path, FILMSTRIP_FORMATS)
 
 
 def _shaded(colours: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ def random_seed(shape, rng) -> str:
 @pytest.mark.parametrize("spec", SHAPES, ids=lambda s: Path(s).stem)
 def test_kept_relations_hold_at_fresh_random_values(spec):
     shape = load_shape(spec)
-    rng = np.random.default_rng(sum(map(ord, spec)))
+    rng = np.random.default_rng(sum(map(ord, Path(spec).stem)))  # the same wherever the checkout lies
     for _ in range(2):
         seed = random_seed(shape, rng)
         program = solvers()["aep"].run(SolveRequest(shape, Program.from_text(seed))).program
@@ -50,8 +50,9 @@ def test_kept_relations_hold_at_fresh_random_values(spec):
         sliding = sliding_members(shape, program)
         for state in report.relations:
             if state.state == "kept":
-                error = relation_error(shape.relations[state.id], corners, sliding)
-                assert error < report.tolerance, (seed, state.id, error)
+                relation = shape.relations[state.id]
+                error = relation_error(relation, corners, sliding)
+                assert error < relation.allowance(report.tolerance), (seed, state.id, error)
 
 
 def any_seed(shape, rng) -> str:
@@ -93,7 +94,7 @@ def test_random_seeds_of_every_family_give_a_program_or_a_parsel_error(spec, bac
     from parsel_core.errors import ParselError
 
     shape = load_shape(spec)
-    rng = np.random.default_rng(sum(map(ord, spec + backend)))
+    rng = np.random.default_rng(sum(map(ord, Path(spec).stem + backend)))
     for _ in range(6):
         seed = any_seed(shape, rng)
         try:

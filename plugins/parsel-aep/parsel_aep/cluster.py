@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from parsel_aep.candidates import _vec
-from parsel_aep.compound import Compound, orthogonal_axes, simplify, translations
+from parsel_aep.compound import Compound, orthogonal_axes, translations
 from parsel_aep.screening import residual_slices
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
@@ -269,15 +269,3 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     if sparse is not None:
         f, matrix = sparse
     return f, matrix, kept
-
-
-def part_terms(system: ClusterSystem, f: np.ndarray, size: float):
-    """Per part, its simplified ops with their weights over the whole basis (compound.simplify)."""
-    out = []
-    total = len(system.weights)
-    for part, compound, block in zip(system.parts, system.compounds, system.blocks):
-        for term in simplify(compound, f[:, block], size):
-            weights = np.zeros(total)
-            weights[block] = term.weights
-            out.append((part, term.op, weights))
-    return out

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from parsel_aep import cluster as cluster_module
+from parsel_aep import factor as factor_module
 from parsel_aep.candidates import (
     HINT_TYPES,
     SIMPLICITY,
@@ -444,23 +445,10 @@ class Propagation:
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
         symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)
         residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
-        x = self.parameter.name
         new_ops: list[EditOp] = []
-        for _part, op, weights in cluster_module.part_terms(found.system, found.f, self.shape.size):
-            expected = found.f @ weights
-            if np.abs(expected).max() < 1e-7 * (self.shape.size if op.name == "translate" else 1.0):
-                continue
-            expr = self.backend.expand(linear_combination(self.backend, -(weights @ found.matrix), residual))
-            try:
-                # round-off at rest (1e-9 where the amount should be 0) is not part of the edit
-                at_rest = self.backend.to_float(self.backend.subs(expr, {x: self.backend.number(0.0)}))
-                if 0 < abs(at_rest) < 1e-7 * max(1.0, float(np.abs(expected).max())):
-                    expr = self.backend.expand(expr - self.backend.number(at_rest))
-                text = amount_text(self.backend, expr)
-                values = evaluate_amount(text, x, self.xs)
-            except (ParselError, ValueError, TypeError):
-                return None
-            if not np.allclose(values, expected, atol=1e-6 * max(1.0, float(np.abs(expected).max()))):
+        for op, expr, expected in self.cluster_amounts(found, residual):
+            text = self.closed_amount(op, expr, expected)
+            if text is None:
                 return None
             if text != "0":
                 new_ops.append(dataclasses.replace(op, amount=text))
@@ -468,10 +456,62 @@ class Propagation:
         ops = found.others_ops + new_ops
         # As in ranking (selection.py): no part may be distorted beyond the threshold at the
         # end of the range (a leg widened 18-fold to reach a rail that was kept fixed).
-        edited = evaluate(self.program(ops), self.shape, {x: self.xs[-1:]}).parts
+        edited = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs[-1:]}).parts
         if any(arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION for m in found.members):
             return None
         return ops
+
+    def cluster_amounts(self, found: _Cluster, residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]]:
+        """Each part's ops in the cluster's joint edit: ``(op, amount expression, amount at
+        the samples)``. A part with shears has its linear part factored exactly (factor.py);
+        the others' ops are the simplified basis (compound.simplify)."""
+        system, f = found.system, found.f
+        total = len(system.weights)
+        out = []
+        for compound, block in zip(system.compounds, system.blocks):
+            fb = f[:, block]
+            sheared = factor_module.has_shears(compound, fb)
+            order = factor_module.choose_order(compound, fb) if sheared else None
+            if sheared and order is None:
+                return [(compound.basis[0], None, fb[:, 0])]  # no exact factors: not taken
+            if sheared:
+                live = [bool(np.abs(fb[:, i]).max() > factor_module.NEGLIGIBLE) for i in range(fb.shape[1])]
+                exprs = [linear_combination(self.backend, -found.matrix[block.start + i], residual) if on
+                         else None for i, on in enumerate(live)]
+                one = self.backend.number(1.0)
+                symbolic = factor_module.factor(compound, exprs, live, order, one)
+                numeric = factor_module.factor(compound, list(fb.T), live, order, np.ones(len(fb)))
+                out += [(op, expr, values) for (op, expr), (_, values) in zip(symbolic, numeric)]
+                fb = np.where(np.arange(fb.shape[1]) >= compound.size - 3, fb, 0.0)  # translations left
+            for term in simplify(compound, fb, self.shape.size):
+                weights = np.zeros(total)
+                weights[block] = term.weights
+                out.append((term.op, linear_combination(self.backend, -(weights @ found.matrix), residual),
+                            f @ weights))
+        return out
+
+    def closed_amount(self, op: EditOp, expr, expected: np.ndarray) -> str | None:
+        """``expr`` printed, checked against its values at the samples (``None`` when they
+        disagree or it does not print); ``"0"`` for an amount that moves nothing."""
+        scale = float(np.abs(expected).max())
+        if expr is None:
+            return None
+        if scale < 1e-7 * (self.shape.size if op.name == "translate" else 1.0):
+            return "0"
+        x = self.parameter.name
+        expr = self.backend.expand(expr)
+        try:
+            # round-off at rest (1e-9 where the amount should be 0) is not part of the edit
+            at_rest = self.backend.to_float(self.backend.subs(expr, {x: self.backend.number(0.0)}))
+            if 0 < abs(at_rest) < 1e-7 * max(1.0, scale):
+                expr = self.backend.expand(expr - self.backend.number(at_rest))
+            text = amount_text(self.backend, expr)
+            values = evaluate_amount(text, x, self.xs)
+        except (ParselError, ValueError, TypeError, ZeroDivisionError):
+            return None
+        if not np.allclose(values, expected, atol=1e-6 * max(1.0, scale)):
+            return None
+        return text
 
     def late_reason(self, state: _State, relation: Relation, sliding: set[str]) -> str:
         """Why a relation between decided parts is broken: which decision broke it."""

@@ -78,3 +78,20 @@ def test_a_scaling_that_flattens_the_part_has_no_factors():
     assert factor.has_shears(compound, f)
     assert factor.choose_order(compound, f) is None
     assert factor.choose_order(compound, f[:1]) is not None   # half-way it is not flat yet
+
+
+def test_a_skewed_part_scaled_uniformly_and_sheared_is_factored_in_world_axes():
+    """A part without orthogonal axes gets one uniform scaling in its basis (cluster.py):
+    its factors are scalings along the world axes and shears, still exactly the model."""
+    skewed = Hexahedron(tilted_box().corners + np.array([[0.0, 0.0, 0.0]] * 7 + [[0.05, 0.02, 0.0]]))
+    compound = box_compound("p", skewed, "local", shears=True)
+    assert compound.basis[0].name == "scale_3d"
+    amounts = np.zeros(compound.size)
+    amounts[0] = 0.15
+    shears = [i for i, op in enumerate(compound.basis) if isinstance(op, Shear)]
+    amounts[shears[0]], amounts[shears[3]] = 0.2, -0.1
+    f = amounts[None]
+    order = factor.choose_order(compound, f)
+    pairs = factor.factor(compound, list(f.T), [a != 0 for a in amounts], order, np.ones(1))
+    got = applied([(op, float(a[0])) for op, a in pairs], skewed.corners)
+    assert got == pytest.approx(linear_model(compound, amounts, skewed.corners), abs=1e-12)

@@ -243,8 +243,11 @@ def _alive(pid: int) -> bool:
 
 
 def _batch_with_workers(tmp_path, workers: int = 2):
-    """A running ``parsel batch`` (own session) and its worker processes, once they are working."""
-    path = cases_file(tmp_path, SEEDS)
+    """A running ``parsel batch`` (own session) and its worker processes, once they are working.
+
+    The batch is long (the seeds 40 times over), so it is still running when the caller
+    signals it, however fast the machine."""
+    path = cases_file(tmp_path, SEEDS * 40)
     command = [sys.executable, "-m", "parsel_core.cli", "batch", str(path), "-o", str(tmp_path / "out"),
                "--workers", str(workers), "--no-progress"]
     process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

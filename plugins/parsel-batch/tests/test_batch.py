@@ -250,7 +250,10 @@ def _batch_with_workers(tmp_path, workers: int = 2):
     path = cases_file(tmp_path, SEEDS * 40)
     command = [sys.executable, "-m", "parsel_core.cli", "batch", str(path), "-o", str(tmp_path / "out"),
                "--workers", str(workers), "--no-progress"]
-    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    # A test run started in the background (`make test &`) inherits SIGINT ignored, and so
+    # would the batch: it gets Ctrl-C's default action back, as in a terminal.
+    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 240
     results = tmp_path / "out" / RESULTS
     while time.monotonic() < deadline and process.poll() is None:

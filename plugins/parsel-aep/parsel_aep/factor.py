@@ -32,9 +32,14 @@ NEGLIGIBLE = 1e-12
 MIN_PIVOT = 0.05
 
 
+def live(f: np.ndarray) -> list[bool]:
+    """Per basis amount in ``f`` (S, K): whether it is non-zero at some sample."""
+    return [bool(np.abs(f[:, i]).max() > NEGLIGIBLE) for i in range(f.shape[1])]
+
+
 def has_shears(compound: Compound, f: np.ndarray) -> bool:
     """Whether any shear of ``compound`` has a non-zero amount in ``f`` (S, K)."""
-    return any(isinstance(op, Shear) and np.abs(f[:, i]).max() > NEGLIGIBLE for i, op in enumerate(compound.basis))
+    return any(isinstance(op, Shear) and on for op, on in zip(compound.basis, live(f)))
 
 
 def frame(compound: Compound) -> np.ndarray:
@@ -137,8 +142,7 @@ def _ops(compound: Compound, order: Sequence[int], lower, diag, upper, one) -> l
 def choose_order(compound: Compound, f: np.ndarray) -> tuple[int, ...] | None:
     """The axis order whose factors need the fewest ops, or ``None`` when every order
     passes a pivot near zero somewhere in the range."""
-    live = [bool(np.abs(f[:, i]).max() > NEGLIGIBLE) for i in range(f.shape[1])]
-    a = linear_map(compound, list(f.T), live, np.ones(f.shape[0]))
+    a = linear_map(compound, list(f.T), live(f), np.ones(f.shape[0]))
     best = None
     for order in itertools.permutations(range(3)):
         with np.errstate(all="ignore"):

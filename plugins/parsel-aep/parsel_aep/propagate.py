@@ -445,8 +445,11 @@ class Propagation:
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
         symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)
         residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
+        amounts = self.cluster_amounts(found, residual)
+        if amounts is None:
+            return None
         new_ops: list[EditOp] = []
-        for op, expr, expected in self.cluster_amounts(found, residual):
+        for op, expr, expected in amounts:
             text = self.closed_amount(op, expr, expected)
             if text is None:
                 return None
@@ -461,10 +464,11 @@ class Propagation:
             return None
         return ops
 
-    def cluster_amounts(self, found: _Cluster, residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]]:
+    def cluster_amounts(self, found: _Cluster, residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]] | None:
         """Each part's ops in the cluster's joint edit: ``(op, amount expression, amount at
         the samples)``. A part with shears has its linear part factored exactly (factor.py);
-        the others' ops are the simplified basis (compound.simplify)."""
+        the others' ops are the simplified basis (compound.simplify). ``None`` when a
+        sheared part has no exact factors (a pivot near zero in every axis order)."""
         system, f = found.system, found.f
         total = len(system.weights)
         out = []
@@ -473,9 +477,9 @@ class Propagation:
             sheared = factor_module.has_shears(compound, fb)
             order = factor_module.choose_order(compound, fb) if sheared else None
             if sheared and order is None:
-                return [(compound.basis[0], None, fb[:, 0])]  # no exact factors: not taken
+                return None
             if sheared:
-                live = [bool(np.abs(fb[:, i]).max() > factor_module.NEGLIGIBLE) for i in range(fb.shape[1])]
+                live = factor_module.live(fb)
                 exprs = [linear_combination(self.backend, -found.matrix[block.start + i], residual) if on
                          else None for i, on in enumerate(live)]
                 one = self.backend.number(1.0)
@@ -494,8 +498,6 @@ class Propagation:
         """``expr`` printed, checked against its values at the samples (``None`` when they
         disagree or it does not print); ``"0"`` for an amount that moves nothing."""
         scale = float(np.abs(expected).max())
-        if expr is None:
-            return None
         if scale < 1e-7 * (self.shape.size if op.name == "translate" else 1.0):
             return "0"
         x = self.parameter.name

@@ -57,8 +57,7 @@ def test_one_shear_and_scalings_give_one_shear_and_the_scalings():
     amounts[shear] = 0.25
     f = np.stack([amounts * t for t in (0.0, 0.5, 1.0)])
     order = factor.choose_order(compound, f)
-    live = [bool(np.abs(f[:, i]).max() > 0) for i in range(compound.size)]
-    pairs = factor.factor(compound, list(f.T), live, order, np.ones(3))
+    pairs = factor.factor(compound, list(f.T), factor.live(f), order, np.ones(3))
     kinds = sorted(type(op).__name__ for op, a in pairs if np.abs(a).max() > 1e-12)
     assert kinds == ["Scale1D", "Scale1D", "Shear"]
     for k, t in enumerate((0.0, 0.5, 1.0)):

@@ -104,14 +104,19 @@ def test_targets_from_points_meshes_and_shapes(tmp_path):
         load_target(str(tmp_path / "flat.xyz"))
 
 
-def test_fit_command_writes_the_fitted_program(tmp_path, capsys):
-    shape = load_shape("tiny_table")
-    program = Program.from_text(WIDEN_TINY_TABLE)
+def _widen_files(tmp_path):
+    """The widening program and a noisy scan of tiny_table widened to x = 0.4, as files."""
     program_path = tmp_path / "widen.parsel"
     program_path.write_text(WIDEN_TINY_TABLE, encoding="utf-8")
-    np.savetxt(tmp_path / "target.xyz", _target(shape, program, {"x": 0.4}, noise=0.002))
+    target = _target(load_shape("tiny_table"), Program.from_text(WIDEN_TINY_TABLE), {"x": 0.4}, noise=0.002)
+    np.savetxt(tmp_path / "target.xyz", target)
+    return program_path, tmp_path / "target.xyz"
+
+
+def test_fit_command_writes_the_fitted_program(tmp_path, capsys):
+    program_path, target_path = _widen_files(tmp_path)
     out = tmp_path / "fitted.json"
-    assert main(["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "-o", str(out),
+    assert main(["fit", "tiny_table", str(program_path), str(target_path), "-o", str(out),
                  "--points", "2048"]) == 0
     printed = capsys.readouterr().out
     assert "Chamfer distance:" in printed and "at the defaults ->" in printed
@@ -162,12 +167,8 @@ def test_a_batch_case_with_a_target_is_fitted(tmp_path):
 
 
 def test_fit_command_prints_the_program_on_stdout_with_a_backend(tmp_path, capsys):
-    shape = load_shape("tiny_table")
-    program = Program.from_text(WIDEN_TINY_TABLE)
-    program_path = tmp_path / "widen.parsel"
-    program_path.write_text(WIDEN_TINY_TABLE, encoding="utf-8")
-    np.savetxt(tmp_path / "target.xyz", _target(shape, program, {"x": 0.4}, noise=0.002))
-    argv = ["fit", "tiny_table", str(program_path), str(tmp_path / "target.xyz"), "--points", "1024",
+    program_path, target_path = _widen_files(tmp_path)
+    argv = ["fit", "tiny_table", str(program_path), str(target_path), "--points", "1024",
             "--starts", "2"]
     assert main([*argv, "-o", "-", "--backend", "symengine", "--verbose"]) == 0
     captured = capsys.readouterr()

@@ -30,7 +30,7 @@ from designer_seeds import designer_seeds  # noqa: E402
 
 from parsel_core.api import edit  # noqa: E402
 from parsel_core.errors import ParselError  # noqa: E402
-from parsel_core.joint import add_layer  # noqa: E402
+from parsel_core.joint import add_layer, box_corners, edge_skew  # noqa: E402
 from parsel_core.loading import load_shape  # noqa: E402
 from parsel_core.program import Program  # noqa: E402
 from parsel_core.report import check_program, kept_alone  # noqa: E402
@@ -70,6 +70,9 @@ class Outcome:
     joint: int = 0          # of those, kept on the joint box (layers)
     sequential: int = 0     # of those, kept on the joint box when stacked with then
     lost: list[str] = field(default_factory=list)
+    on_top: int = 0         # layers that turn parts, run on top of the summed ones
+    skew: float = 0.0       # largest |cos| between a part's edges at a box corner (0: every part a box)
+    summed_skew: float = 0.0  # the same with every layer summed, turns too
     solve_s: float = 0.0
     compose_s: float = 0.0
     check_s: float = 0.0
@@ -117,6 +120,11 @@ def run_shape(path: Path, samples: int) -> Outcome:
         outcome.joint = len(must & kept)
         outcome.sequential = len(must & seq_kept)
         outcome.lost = sorted(must - kept)
+        corners = box_corners(layered.parameters)
+        outcome.on_top = len(layered.outer)
+        outcome.skew = max(edge_skew(shape, layered, corners).values())
+        summed = Program(layered.ops, layered.parameters, {}, layered.layers)
+        outcome.summed_skew = max(edge_skew(shape, summed, corners).values())
     except Exception as exc:  # noqa: BLE001 - a benchmark reports crashes, it does not stop at them
         outcome.error = f"{type(exc).__name__}: {exc}"
     return outcome
@@ -132,7 +140,7 @@ def median(rows: list[Outcome], key: str) -> str:
 
 def print_table(outcomes: list[Outcome]) -> None:
     print(f"\n{'category':<10}{'shapes':>7}{'alone kept':>12}{'joint kept':>12}{'all kept':>10}"
-          f"{'then (old)':>12}{'solve s':>9}{'layer s':>9}{'check s':>9}")
+          f"{'then (old)':>12}{'on top':>8}{'skew':>7}{'summed':>8}{'solve s':>9}{'layer s':>9}{'check s':>9}")
     groups = {c: [o for o in outcomes if o.category == c] for c in CATEGORIES}
     groups["all"] = outcomes
     for name, rows in groups.items():
@@ -142,9 +150,11 @@ def print_table(outcomes: list[Outcome]) -> None:
         alone = sum(o.alone for o in ok)
         joint = sum(o.joint for o in ok)
         seq = sum(o.sequential for o in ok)
+        skew, summed = max((o.skew for o in ok), default=0), max((o.summed_skew for o in ok), default=0)
         every = sum(1 for o in ok if o.joint == o.alone)
         print(f"{name:<10}{len(rows):>7}{alone:>12}{percent(joint, alone):>12}{f'{every}/{len(ok)}':>10}"
-              f"{percent(seq, alone):>12}{median(ok, 'solve_s'):>9}{median(ok, 'compose_s'):>9}"
+              f"{percent(seq, alone):>12}{sum(o.on_top for o in ok):>8}{skew:>7.3f}{summed:>8.3f}"
+              f"{median(ok, 'solve_s'):>9}{median(ok, 'compose_s'):>9}"
               f"{median(ok, 'check_s'):>9}")
     crashed = [o for o in outcomes if o.error]
     if crashed:

@@ -227,7 +227,7 @@ def edit(shape: ShapeLike, request: str | None = None, seed: str | Program | Non
         result = chosen.run(solve)
         program, rejected, stats = result.program, list(result.rejected), dict(result.stats)
     timings["solve_s"] = time.perf_counter() - started
-    program = type(program)(program.ops, program.parameters, metadata, program.layers)
+    program = program.with_metadata(metadata)
     if base is not None:
         program, breaks = _on_base(graph, base, program, metadata, breaks)
         solve = SolveRequest(graph, seed_program, hints, tuple(breaks), options)
@@ -283,7 +283,7 @@ def _on_base(graph: ShapeGraph, base: Program, program: Program, metadata: Mappi
     all_breaks = sorted(set(base.metadata.get("breaks") or ()) | set(breaks))
     meta = {**{k: v for k, v in metadata.items() if k not in ("request", "seed", "hints", "breaks")},
             "application": "stacked", "requests": combined.metadata["requests"], "breaks": all_breaks}
-    return type(combined)(combined.ops, combined.parameters, meta, combined.layers), all_breaks
+    return combined.with_metadata(meta), all_breaks
 
 
 def check(shape: ShapeLike, program: ProgramLike, breaks: Iterable[str] = (), samples: int = 50,
@@ -463,9 +463,8 @@ def proxydural(shape: ShapeLike, count: int = 5, *, provider: Any = "offline", m
             breaks.update(request_breaks)
     if composed is None:
         raise ParselError(f"none of the {len(proposal.requests)} proposed requests could be turned into a program")
-    composed = type(composed)(composed.ops, composed.parameters, {
-        "solver": "aep", "shape": graph.name, "application": "proxydural", "requests": used,
-        "breaks": sorted(breaks)}, composed.layers)
+    composed = composed.with_metadata({"solver": "aep", "shape": graph.name, "application": "proxydural",
+                                       "requests": used, "breaks": sorted(breaks)})
     report = check_program(graph, composed, sorted(breaks), samples=check_samples)
     per_slider = check_each_parameter(graph, composed, sorted(breaks))
     report.extra.update({"shape": graph.name, "requests": used, "skipped": skipped, "per_slider": per_slider})
@@ -533,9 +532,8 @@ def variations(shape: ShapeLike, request: str, count: int = 3, *, provider: Any 
             if program is None:
                 variants.append(Variant(text, skipped=reason))
                 continue
-            program = type(program)(program.ops, program.parameters, {
-                "solver": "aep", "shape": graph.name, "application": "variations", "request": text,
-                "family": request}, program.layers)
+            program = program.with_metadata({"solver": "aep", "shape": graph.name, "application": "variations",
+                                             "request": text, "family": request})
             variants.append(Variant(text, program, check_program(graph, program, request_breaks)))
     if not any(v.program is not None for v in variants):
         raise ParselError(f"none of the variants of {request!r} could be turned into a program")

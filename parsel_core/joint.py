@@ -26,7 +26,7 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import corner_jacobians
 from parsel_core.ops import GroupOp
-from parsel_core.program import Parameter, Program, evaluate
+from parsel_core.program import Follow, Parameter, Program, evaluate
 
 #: Box corners are enumerated up to this many parameters (2**10 corners); beyond, random ones.
 MAX_CORNER_PARAMETERS = 10
@@ -90,6 +90,19 @@ def moved_parts(shape: ShapeGraph, program: Program) -> set[str]:
     return moved & set(shape.parts)
 
 
+def edge_skew(shape: ShapeGraph, program: Program, values: Mapping[str, Any]) -> dict[str, float]:
+    """Per part, the largest |cos| between two of its edges at a corner over the samples
+    ``values`` (0 for a box at every sample; a turn summed with a widening shears a part)."""
+    out = {}
+    for pid, c in evaluate(program, shape, values).parts.items():
+        edges = np.stack([c[..., 4, :] - c[..., 0, :], c[..., 2, :] - c[..., 0, :], c[..., 1, :] - c[..., 0, :]], -2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            unit = edges / np.linalg.norm(edges, axis=-1, keepdims=True)
+        cos = np.abs(np.einsum("...ik,...jk->...ij", unit, unit) - np.eye(3))
+        out[pid] = float(np.nanmax(cos)) if np.isfinite(cos).any() else 0.0
+    return out
+
+
 def degenerate_parts(shape: ShapeGraph, program: Program, values: Mapping[str, np.ndarray]) -> list[str]:
     """Parts that degenerate at some of the joint samples ``values``."""
     corners = evaluate(program, shape, values).parts
@@ -126,8 +139,7 @@ def fit_joint_range(shape: ShapeGraph, program: Program, name: str, steps: int =
     parameter = program.parameter(name)
 
     def with_factor(factor: float) -> Program:
-        params = tuple(narrowed(p, factor) if p.name == name else p for p in program.parameters)
-        return Program(program.ops, params, dict(program.metadata), program.layers)
+        return program.with_parameters(narrowed(p, factor) if p.name == name else p for p in program.parameters)
 
     lo, hi = 0.0, 1.0
     for _ in range(steps):
@@ -219,6 +231,80 @@ def check_layouts(base: Program | None, layer: Program, request: str) -> None:
                               f"follow both")
 
 
+#: Two parts move alike when their fitted affine maps agree to this (in shape units, per unit of
+#: coordinate: the maps are compared on the parts' own corners).
+SAME_MOTION = 1e-9
+
+
+def _affine_maps(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, float]:
+    """The affine maps (samples, 4, 3) taking rest corners (8, 3) to moved ones (samples, 8, 3)
+    by least squares, and the largest corner residual (zero for affine edits)."""
+    homogeneous = np.hstack([rest, np.ones((8, 1))])
+    maps = np.stack([np.linalg.lstsq(homogeneous, m, rcond=None)[0] for m in moved])
+    residual = float(np.max(np.abs(homogeneous @ maps - moved))) if len(moved) else 0.0
+    return maps, residual
+
+
+def turns_parts(shape: ShapeGraph, layer: Program, samples: int = 3) -> bool:
+    """Whether the layer turns or shears a part (a linear map that is not diagonal in world axes)."""
+    return bool(_motions(shape, layer, samples)[1])
+
+
+def _motions(shape: ShapeGraph, layer: Program, samples: int) -> tuple[dict[str, np.ndarray], bool]:
+    values = {p.name: np.linspace(p.lo, p.hi, samples + 1)[1:] for p in layer.parameters}
+    corners = evaluate(layer, shape, values).parts
+    rest = shape.rest_corners()
+    maps: dict[str, np.ndarray] = {}
+    turning = False
+    for pid, moved in corners.items():
+        moved = np.broadcast_to(moved, (samples, 8, 3))
+        if pid not in rest or np.allclose(moved, rest[pid], rtol=0, atol=1e-12):
+            continue
+        affine, residual = _affine_maps(rest[pid], moved)
+        scale = max(float(np.ptp(rest[pid], axis=0).max()), 1e-12)
+        if residual > 1e-9 * scale:
+            maps[pid] = moved  # not affine (a taper): it moves alike only with itself
+            continue
+        maps[pid] = affine
+        linear = affine[:, :3, :]
+        off_diagonal = linear - np.einsum("sii->si", linear)[:, :, None] * np.eye(3)
+        turning = turning or bool(np.abs(off_diagonal).max() > 1e-9)
+    return maps, turning
+
+
+def follows_for(shape: ShapeGraph, layer: Program, samples: int = 3) -> tuple[Follow, ...]:
+    """How the ops of a layer that turns parts follow the shape beneath, as an outer layer.
+
+    Parts the layer moves by one and the same map (a door and its handle, turned about one
+    hinge) form a rigid set; every op on the set that has an origin follows one point: the
+    origin of the first such op on the set's largest part (the hinge), carried by that part.
+    Relations inside the set hold after the shape beneath moved them (one map for all); a
+    contact on the turning axis stays on it when the parts beneath keep the axis's direction."""
+    maps, _ = _motions(shape, layer, samples)
+    rest = shape.rest_corners()
+    sets: list[list[str]] = []
+    for pid in maps:
+        for members in sets:
+            other = maps[members[0]]
+            if other.shape == maps[pid].shape and np.allclose(other, maps[pid], rtol=0, atol=SAME_MOTION):
+                members.append(pid)
+                break
+        else:
+            sets.append([pid])
+    follows = []
+    for members in sets:
+        ops = [i for i, op in enumerate(layer.ops) if op.acts_on == "part" and op.operand in members
+               and op.point_fields]
+        if not ops:
+            continue
+        volume = {pid: float(np.prod(np.ptp(rest[pid], axis=0))) for pid in members}
+        anchor = max(members, key=lambda pid: (pid in shape.parts, volume[pid], pid))
+        on_anchor = [i for i in ops if layer.ops[i].operand == anchor] or ops
+        point = getattr(layer.ops[on_anchor[0]], layer.ops[on_anchor[0]].point_fields[0])
+        follows.append(Follow(anchor, point, tuple(ops)))
+    return tuple(follows)
+
+
 def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: str,
               name: str | None = None) -> tuple[Program, str]:
     """``layer`` (one request's program, solved on the rest shape) added to ``base`` as a new
@@ -234,14 +320,28 @@ def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: 
     if base is None or not base.ops:
         name = name or "x1"
         program = layer.renamed(layer.parameters[0].name, name)
+        if turns_parts(shape, program):  # later layers go beneath it
+            program = Program(()).atop(program, follows_for(shape, program))
     else:
+        if not base.layers and turns_parts(shape, base):
+            base = Program((), base.parameters, base.metadata).atop(base, follows_for(shape, base))
         name = name or fresh_name(base)
         if name in base.parameter_names:
             raise ParselError(f"parameter {name!r} is already one of the program's ({', '.join(base.parameter_names)})")
-        program = base.plus(layer.renamed(layer.parameters[0].name, name))
-        program = fit_joint_range(shape, program, name)
-        check_joint_relations(shape, base, program, name, request)
+        renamed = layer.renamed(layer.parameters[0].name, name)
+        program = None
+        if turns_parts(shape, renamed):
+            # A turn summed with a widening shears the part; on top of the others it turns the
+            # widened part about its carried hinge (docs/aep.md, "Several parameters").
+            try:
+                program = fit_joint_range(shape, base.atop(renamed, follows_for(shape, renamed)), name)
+                check_joint_relations(shape, base, program, name, request)
+            except ParselError:
+                program = None
+        if program is None:
+            program = fit_joint_range(shape, base.plus(renamed), name)
+            check_joint_relations(shape, base, program, name, request)
     meta: dict[str, Any] = {key: value for key, value in dict(base.metadata if base is not None else {}).items()
                             if key not in ("request", "seed", "requests")}
     meta.update({"shape": shape.name, "requests": base_requests + [{"request": request, "parameter": name}]})
-    return Program(program.ops, program.parameters, meta, program.layers), name
+    return program.with_metadata(meta), name

@@ -12,6 +12,7 @@ symbolic corners lambdified once, so a slider step is one vectorised call).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -85,19 +86,64 @@ def _finite(value: int | float) -> bool:
         return False
 
 
+def _bad_follow(value: Any) -> Follow:
+    raise ProgramFormatError(f"follows: each entry must be an object with part, point and ops, got {value!r}")
+
+
+@dataclass(frozen=True)
+class Follow:
+    """Ops of an outer layer whose points travel with one point of a part.
+
+    Before the layer runs, ``point`` (a point of ``part`` at rest) is found where the layers
+    before it moved it, by its cage coordinates in the part; call that displacement ``d``.
+    Each op in ``ops`` (indices into the program) then runs conjugated by it,
+    ``p -> op(p - d) + d``: the op with its origin carried along (docs/aep.md, "Several
+    parameters"). A door's turn about its hinge, after a widening moved the hinge, still
+    turns the door (and its handle) about the hinge."""
+
+    part: str
+    point: tuple[float, float, float]
+    ops: tuple[int, ...]
+
+    def __post_init__(self) -> None:
+        from parsel_core.ops import as_vector
+
+        if not isinstance(self.part, str) or not self.part:
+            raise ProgramFormatError(f"follows: part must be a part id, got {self.part!r}")
+        object.__setattr__(self, "point", as_vector(self.point, "follows.point"))
+        ops = self.ops
+        if isinstance(ops, (str, bytes)) or not isinstance(ops, Iterable):
+            raise ProgramFormatError(f"follows: ops must be a list of op indices, got {ops!r}")
+        ops = tuple(ops)
+        if not ops or any(isinstance(i, bool) or not isinstance(i, int) or i < 0 for i in ops):
+            raise ProgramFormatError(f"follows: ops must be op indices (0 or more), got {list(ops)!r}")
+        object.__setattr__(self, "ops", tuple(sorted(set(ops))))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"part": self.part, "point": list(self.point), "ops": list(self.ops)}
+
+    def shifted(self, offset: int) -> Follow:
+        return Follow(self.part, self.point, tuple(i + offset for i in self.ops))
+
+
 @dataclass(frozen=True)
 class Program:
     """Ordered edit ops and the parameters their amounts use.
 
-    Programs stack two ways: ``then`` (the second edits the output of the first) and
-    ``plus`` (layers: each edits the rest shape, their displacements add). ``layers``
-    holds the number of ops in each layer; ``()`` is one layer, a plain sequence.
+    Programs stack three ways: ``then`` (the second edits the output of the first),
+    ``plus`` (layers: each edits the rest shape, their displacements add) and ``atop``
+    (an *outer* layer: it runs after the sum, on the shape the other layers made, its ops'
+    origins carried along by ``follows``). ``layers`` holds the number of ops in each layer;
+    ``()`` is one layer, a plain sequence. ``outer`` lists the outer layers by index: they
+    run after every other layer, in their order.
     """
 
     ops: tuple[EditOp, ...]
     parameters: tuple[Parameter, ...] = (Parameter("x"),)
     metadata: Mapping[str, Any] = field(default_factory=dict, compare=False)
     layers: tuple[int, ...] = ()
+    outer: tuple[int, ...] = ()
+    follows: tuple[Follow, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "ops", tuple(self.ops))
@@ -111,7 +157,9 @@ class Program:
         if layers and sum(layers) != len(self.ops):
             raise ProgramFormatError(f"layers {list(layers)!r} count {sum(layers)} ops, the program has "
                                      f"{len(self.ops)}")
-        object.__setattr__(self, "layers", layers if len(layers) > 1 else ())
+        # One layer is a plain sequence, unless it is marked outer (a turn that later layers go beneath).
+        object.__setattr__(self, "layers", layers if len(layers) > 1 or (layers and tuple(self.outer) == (0,)) else ())
+        self._check_outer()
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
@@ -121,6 +169,43 @@ class Program:
             if unknown:
                 raise ProgramFormatError(f"op {i} ({op.name} on {op.operand!r}): amount {op.amount!r} uses "
                                          f"undeclared parameter(s) {', '.join(unknown)}")
+
+    def _check_outer(self) -> None:
+        outer = self.outer
+        if isinstance(outer, (str, bytes)) or not isinstance(outer, Iterable):
+            raise ProgramFormatError(f"outer must be a list of layer indices, got {outer!r}")
+        outer = tuple(outer)
+        count = len(self.layers) or 1
+        if any(isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < count for i in outer):
+            raise ProgramFormatError(f"outer must list layers 0 to {count - 1}, got {list(outer)!r}")
+        if outer and not self.layers:
+            raise ProgramFormatError("outer layers need a layered program (a plain program is one layer)")
+        object.__setattr__(self, "outer", tuple(sorted(set(outer))))
+        follows = self.follows
+        if isinstance(follows, (str, bytes, Mapping)) or not isinstance(follows, Iterable):
+            raise ProgramFormatError(f"follows must be a list, got {follows!r}")
+        follows = tuple(f if isinstance(f, Follow) else Follow(**f) if isinstance(f, Mapping) and
+                        set(f) == {"part", "point", "ops"} else _bad_follow(f) for f in follows)
+        in_outer = {i for k in self.outer for i in range(self.layer_slices[k].start, self.layer_slices[k].stop)}
+        seen: set[int] = set()
+        for f in follows:
+            for i in f.ops:
+                if i not in in_outer:
+                    raise ProgramFormatError(f"follows: op {i} is not in an outer layer")
+                if i in seen:
+                    raise ProgramFormatError(f"follows: op {i} follows two points")
+                seen.add(i)
+        object.__setattr__(self, "follows", follows)
+
+    @property
+    def layer_order(self) -> tuple[int, ...]:
+        """Layers in the order they run: the summed ones, then the outer ones."""
+        count = len(self.layer_slices)
+        return tuple(i for i in range(count) if i not in self.outer) + self.outer
+
+    def follow_of(self) -> dict[int, Follow]:
+        """Which point each following op travels with, by op index."""
+        return {i: f for f in self.follows for i in f.ops}
 
     def check_numbers(self, source: str = "<program>") -> None:
         """Refuse what a file or a model could slip in: too many ops, coordinates or ranges
@@ -135,6 +220,10 @@ class Program:
                 raise ProgramFormatError(f"{source}: parameter {p.name!r}: range [{p.lo:g}, {p.hi:g}] is over the "
                                          f"limit max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
         ranges = {p.name: (p.lo, p.hi) for p in self.parameters}
+        for f in self.follows:
+            if any(not abs(v) <= bound for v in f.point):
+                raise ProgramFormatError(f"{source}: follows point {list(f.point)!r} of {f.part!r} is over the limit "
+                                         f"max_magnitude = {bound:g} (raise it with PARSEL_MAX_MAGNITUDE)")
         for i, op in enumerate(self.ops):
             where = f"{source}: op {i} ({op.name} on {op.operand!r})"
             for key, value in op.params().items():
@@ -201,7 +290,7 @@ class Program:
         programs solved separately on the rest shape compose with :meth:`plus`."""
         if self.layers or other.layers:
             raise ProgramFormatError("cannot stack a layered program with then (layers edit the rest shape); "
-                                     "add layers with plus")
+                                     "add layers with plus or atop")
         return Program(self.ops + other.ops, self._merged_parameters(other), {**self.metadata, **other.metadata})
 
     def plus(self, other: Program) -> Program:
@@ -210,15 +299,47 @@ class Program:
 
         Every relation is linear in the corners and holds at rest, so displacements that
         each keep a relation keep it when added: at every combination of the parameters."""
-        sizes = tuple(n for n in (self.layers or (len(self.ops),)) + (other.layers or (len(other.ops),)) if n)
-        return Program(self.ops + other.ops, self._merged_parameters(other), {**self.metadata, **other.metadata},
-                       sizes)
+        return self._stacked(other, outer=False, follows=())
+
+    def atop(self, other: Program, follows: Iterable[Follow] = ()) -> Program:
+        """Add ``other`` as an outer layer: it runs after every summed layer, on the shape they
+        made, each op in ``follows`` (indices into ``other``) with its origin carried along.
+
+        For edits that turn parts: a turn summed with a widening shears the part (the
+        displacements add, the maps do not compose); on top, the widened part is turned."""
+        return self._stacked(other, outer=True, follows=tuple(follows))
+
+    def _stacked(self, other: Program, outer: bool, follows: tuple[Follow, ...]) -> Program:
+        mine = self.layers or ((len(self.ops),) if self.ops else ())
+        theirs = other.layers or ((len(other.ops),) if other.ops else ())
+        params, meta = self._merged_parameters(other), {**self.metadata, **other.metadata}
+        count = len(mine)
+        other_outer = tuple(i + count for i in other.outer)
+        if outer:
+            if len(theirs) > 1:
+                raise ProgramFormatError("an outer layer is a program of one layer")
+            if not theirs:
+                return dataclasses.replace(self, parameters=params, metadata=meta)
+            other_outer += (count,)
+            other_follows = other.follows + follows
+        else:
+            other_follows = other.follows
+        shifted = tuple(f.shifted(len(self.ops)) for f in other_follows)
+        return Program(self.ops + other.ops, params, meta, mine + theirs, self.outer + other_outer,
+                       self.follows + shifted)
+
+    def with_metadata(self, metadata: Mapping[str, Any]) -> Program:
+        """The same program with other metadata."""
+        return dataclasses.replace(self, metadata=dict(metadata))
+
+    def with_parameters(self, parameters: Iterable[Parameter]) -> Program:
+        """The same ops and layers with other parameter ranges."""
+        return dataclasses.replace(self, parameters=tuple(parameters))
 
     def renamed(self, old: str, new: str) -> Program:
         """The same program with parameter ``old`` called ``new`` (in its amounts too)."""
         import ast
         import copy
-        import dataclasses
 
         from parsel_core.expressions import parse_expression
 
@@ -232,7 +353,7 @@ class Program:
         ops = tuple(dataclasses.replace(op, amount=rename(op.amount)) if old in op.parameters else op
                     for op in self.ops)
         params = tuple(dataclasses.replace(p, name=new) if p.name == old else p for p in self.parameters)
-        return Program(ops, params, dict(self.metadata), self.layers)
+        return dataclasses.replace(self, ops=ops, parameters=params, metadata=dict(self.metadata))
 
     def validate(self, shape: ShapeGraph) -> None:
         """Check every operand against the shape; errors name the op and the part."""
@@ -250,6 +371,13 @@ class Program:
                 if op.operand in shape.virtual_parents and op.feature is not None:
                     raise ProgramFormatError(f"{where}: feature ops on a group's virtual parent "
                                              f"{op.operand!r} are not supported; edit its members")
+        for f in self.follows:
+            if f.part not in shape.parts and f.part not in shape.virtual_parents:
+                raise UnknownPartError(f"follows: shape {shape.name!r} has no part {f.part!r}")
+            for i in f.ops:
+                if self.ops[i].acts_on != "part":
+                    raise ProgramFormatError(f"follows: op {i} ({self.ops[i].name}) lays out a group; only part "
+                                             "ops follow a point")
         modes: dict[str, str] = {}
         for op in self.ops:
             if isinstance(op, GroupOp) and modes.setdefault(op.operand, op.mode) != op.mode:
@@ -270,6 +398,10 @@ class Program:
         }
         if self.layers:
             data["layers"] = list(self.layers)
+        if self.outer:
+            data["outer"] = list(self.outer)
+        if self.follows:
+            data["follows"] = [f.to_dict() for f in self.follows]
         if self.metadata:
             data["metadata"] = dict(self.metadata)
         return data
@@ -292,7 +424,8 @@ class Program:
         if type(data.get("version")) is not int or data.get("version") != PROGRAM_VERSION:  # true is not 1
             raise ProgramFormatError(f"{source}: unsupported program version {data.get('version')!r} "
                                      f"(this parsel reads {PROGRAM_VERSION})")
-        unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata", "layers"})
+        unknown = sorted(set(data) - {"format", "version", "parameters", "ops", "metadata", "layers", "outer",
+                                      "follows"})
         if unknown:
             raise ProgramFormatError(f"{source}: unknown field(s) {', '.join(unknown)}")
         params = []
@@ -318,8 +451,13 @@ class Program:
         layers = data.get("layers", [])
         if not isinstance(layers, list):
             raise ProgramFormatError(f"{source}: field 'layers' must be a list of op counts")
+        outer, follows = data.get("outer", []), data.get("follows", [])
+        if not isinstance(outer, list):
+            raise ProgramFormatError(f"{source}: field 'outer' must be a list of layer indices")
+        if not isinstance(follows, list):
+            raise ProgramFormatError(f"{source}: field 'follows' must be a list")
         try:
-            program = cls(tuple(ops), tuple(params), dict(metadata), tuple(layers))
+            program = cls(tuple(ops), tuple(params), dict(metadata), tuple(layers), tuple(outer), tuple(follows))
         except ProgramFormatError as exc:
             raise ProgramFormatError(f"{source}: {exc}") from None
         program.check_numbers(source)
@@ -389,16 +527,34 @@ def laid_out_groups(program: Program) -> set[str]:
 
 
 def _run_part_ops(ops: Sequence[EditOp], shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
-                  math_ns: Any, anchors_only: set[str]) -> dict[str, Any]:
-    for op, amount in zip(ops, amounts):
+                  math_ns: Any, anchors_only: set[str], shifts: Sequence[Any] | None = None) -> dict[str, Any]:
+    for k, (op, amount) in enumerate(zip(ops, amounts)):
         if op.acts_on != "part":
             continue
         targets = [op.operand]
         if op.operand in shape.virtual_parents and op.operand not in anchors_only:
             targets += list(shape.relations[op.operand].members)
+        shift = shifts[k] if shifts is not None else None
         for target in targets:
-            corners[target] = op.apply(corners[target], amount, math_ns)
+            if shift is None:
+                corners[target] = op.apply(corners[target], amount, math_ns)
+            else:  # the op with its points carried by the shift (Follow): p -> op(p - d) + d
+                corners[target] = op.apply(corners[target] - shift, amount, math_ns) + shift
     return corners
+
+
+def follow_weights(shape: ShapeGraph, follow: Follow) -> np.ndarray:
+    """The cage coordinates (8,) of a Follow's point in its part at rest."""
+    from parsel_core.cage import cage_weights, inverse_trilinear
+
+    rest = shape.rest_corners()[follow.part]
+    return cage_weights(inverse_trilinear(rest, np.asarray(follow.point, dtype=float)))[0]
+
+
+def _displacement(weights: np.ndarray, corners: Any, point: tuple[float, float, float]) -> Any:
+    """Where the point with cage coordinates ``weights`` moved in ``corners`` (..., 8, 3): (..., 1, 3)."""
+    moved = (np.asarray(weights)[:, None] * corners).sum(axis=-2)
+    return (moved - np.asarray(point, dtype=float))[..., None, :]
 
 
 def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
@@ -408,18 +564,33 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
     is laid out top-down, where the parent only carries the anchors of the layout.
 
     In a layered program each layer runs on the rest ``corners`` and the result is the
-    rest corners plus every layer's displacement (a part no layer moves keeps its array)."""
+    rest corners plus every layer's displacement (a part no layer moves keeps its array).
+    Outer layers then run in turn on that sum, their following ops conjugated by how far
+    the layers before them moved the followed point (:class:`Follow`)."""
     slices = program.layer_slices
     if len(slices) == 1:
         return _run_part_ops(program.ops, shape, corners, amounts, math_ns, top_down_groups(program))
     rest = dict(corners)
     total = dict(corners)
-    for part in slices:
-        anchors_only = {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
-        layer = _run_part_ops(program.ops[part], shape, dict(rest), amounts[part], math_ns, anchors_only)
+    outer = set(program.outer)
+
+    def anchors_of(part: slice) -> set[str]:
+        return {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
+
+    for i, part in enumerate(slices):
+        if i in outer:
+            continue
+        layer = _run_part_ops(program.ops[part], shape, dict(rest), amounts[part], math_ns, anchors_of(part))
         for pid, moved in layer.items():
             if moved is not rest[pid]:
                 total[pid] = total[pid] + (moved - rest[pid])
+    follow_of = program.follow_of()
+    for i in program.outer:
+        part = slices[i]
+        shifts_of = {f: _displacement(follow_weights(shape, f), total[f.part], f.point)
+                     for f in {follow_of[k] for k in range(part.start, part.stop) if k in follow_of}}
+        shifts = [shifts_of[follow_of[k]] if k in follow_of else None for k in range(part.start, part.stop)]
+        total = _run_part_ops(program.ops[part], shape, total, amounts[part], math_ns, anchors_of(part), shifts)
     return total
 
 
@@ -500,8 +671,9 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
             if op.operand in shape.virtual_parents:
                 touched.update(shape.relations[op.operand].members)
     # Touched parts start as CAS numbers so every corner entry is an expression.
+    followed = {f.part for f in program.follows}
     corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]
-                               for pid in rest if pid in wanted or pid in touched}
+                               for pid in rest if pid in wanted or pid in touched or pid in followed}
     corners = _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), opmath)
     return {pid: c for pid, c in corners.items() if pid in wanted}
 

@@ -57,14 +57,45 @@ def op_to_text(op: EditOp) -> str:
 
 
 def program_to_text(program) -> str:
+    """The text form: ``param`` lines, then the ops a line each; ``layer`` starts a summed
+    layer and ``layer on top`` an outer one, whose following ops end with ``follows=(part, point)``."""
     lines = ["# parsel program"]
     for p in program.parameters:
         lines.append(f"param {p.name} in [{p.lo!r}, {p.hi!r}] default {p.default!r}")
+    follow_of = program.follow_of()
     for i, part in enumerate(program.layer_slices):
-        if i:
-            lines.append("layer")
-        lines.extend(op_to_text(op) for op in program.ops[part])
+        if i or i in program.outer:
+            lines.append("layer on top" if i in program.outer else "layer")
+        for k in range(part.start, part.stop):
+            line = op_to_text(program.ops[k])
+            if k in follow_of:
+                f = follow_of[k]
+                line = f"{line[:-1]}, follows=({f.part!r}, {_format_value(f.point)}))"
+            lines.append(line)
     return "\n".join(lines) + "\n"
+
+
+def _take_follows(line: str, where: str) -> tuple[str, tuple[str, Any] | None]:
+    """An op line without its ``follows=(part, point)`` argument, and that argument."""
+    if "follows" not in line:
+        return line, None
+    try:
+        tree = ast.parse(line.strip(), mode="eval").body
+    except SyntaxError:
+        return line, None  # op_from_text says what does not parse
+    if not isinstance(tree, ast.Call):
+        return line, None
+    keep = [k for k in tree.keywords if k.arg != "follows"]
+    given = [k for k in tree.keywords if k.arg == "follows"]
+    if not given:
+        return line, None
+    if len(given) > 1:
+        raise ProgramFormatError(f"{where}: argument 'follows' given twice")
+    value = _literal(given[0].value, f"{where}: follows")
+    if not (isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str)):
+        raise ProgramFormatError(f"{where}: follows must be (part, (x, y, z))")
+    tree.keywords = keep
+    return ast.unparse(tree), value
 
 
 def _literal(node: ast.AST, where: str) -> Any:
@@ -140,7 +171,7 @@ def op_from_text(line: str, registry: Mapping[str, type[EditOp]], where: str = "
 
 def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = None, source: str = "<program>"):
     """Parse the text form; errors name the source and line number."""
-    from parsel_core.program import Parameter, Program
+    from parsel_core.program import Follow, Parameter, Program
 
     if registry is None:
         from parsel_core.plugins import edit_operators
@@ -150,16 +181,22 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
 
     lines = text.splitlines()
     check_limit("max_program_lines", f"{source}: lines", len(lines))
-    params, ops, layers = [], [], []
+    params, ops, layers, outer, follows = [], [], [], [], {}
     for number, raw in enumerate(lines, start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
         where = f"{source}:{number}"
-        if line.split("#", 1)[0].strip() == "layer":
+        words = line.split("#", 1)[0].split()
+        if words == ["layer", "on", "top"] and not ops and not outer:  # the first layer is an outer one
+            outer.append(0)
+            continue
+        if words in (["layer"], ["layer", "on", "top"]):
             if len(ops) == sum(layers):
                 raise ProgramFormatError(f"{where}: 'layer' must follow at least one op (a layer has ops)")
             layers.append(len(ops) - sum(layers))
+            if words == ["layer", "on", "top"]:
+                outer.append(len(layers))
             continue
         if line.split()[0] == "param":
             line = line.split("#", 1)[0].strip()  # op lines keep theirs: ast skips comments
@@ -179,6 +216,10 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
                 raise ProgramFormatError(f"{where}: {exc}") from None
             continue
         try:
+            line, follow = _take_follows(line, where)
+            if follow is not None:
+                follows.setdefault((follow[0], tuple(follow[1]) if isinstance(follow[1], tuple) else follow[1]),
+                                   []).append(len(ops))
             ops.append((where, op_from_text(line, registry, where)))
         except (RecursionError, MemoryError) as exc:  # the parser's own stack
             raise ProgramFormatError(f"{where}: does not parse: nested too deeply ({type(exc).__name__})") from None
@@ -193,12 +234,13 @@ def program_from_text(text: str, registry: Mapping[str, type[EditOp]] | None = N
             raise ProgramFormatError(f"{where}: amount {op.amount!r} uses undeclared parameter(s) "
                                      f"{', '.join(unknown)} (declare with 'param NAME in [LO, HI]')")
     ops = [op for _, op in ops]
-    if layers:
+    if layers or outer:
         if len(ops) == sum(layers):
             raise ProgramFormatError(f"{source}: the last 'layer' line has no ops after it")
         layers.append(len(ops) - sum(layers))
     try:
-        program = Program(tuple(ops), tuple(params), {}, tuple(layers))
+        program = Program(tuple(ops), tuple(params), {}, tuple(layers), tuple(outer),
+                          tuple(Follow(part, point, tuple(indices)) for (part, point), indices in follows.items()))
     except ProgramFormatError as exc:
         raise ProgramFormatError(f"{source}: {exc}") from None
     program.check_numbers(source)

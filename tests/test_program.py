@@ -128,3 +128,71 @@ def test_stacking_refuses_conflicting_parameters():
     b = Program.from_text("param x in [0, 2]\ntranslate(b, dir=(1,0,0), amount=x)")
     with pytest.raises(ProgramFormatError, match="differs"):
         a.then(b)
+
+
+# -- outer layers: a turn on top of the summed layers, its origin carried along --------------
+
+def _outer_program():
+    from parsel_core.program import Follow
+
+    widen = Program.from_text("param x1 in [0, 1]\nscale_1d(seat, origin=(0, 0, 0), dir=(1, 0, 0), amount=x1)")
+    turn = Program.from_text("param x2 in [0, 1]\nrotate(seat, origin=(0.21, 0.43, 0), axis=(0, 1, 0), "
+                             "amount=pi / 2 * x2)")
+    return widen.atop(turn, (Follow("seat", (0.21, 0.43, 0.0), (0,)),))
+
+
+def test_an_outer_layer_turns_the_widened_part_about_its_carried_hinge():
+    from parsel_core.loading import load_shape
+
+    chair = load_shape("chair")
+    program = _outer_program()
+    rest = chair.rest_corners()["seat"]
+    widened = rest * np.array([2.0, 1.0, 1.0])  # x1 = 1 doubles x about the origin
+    hinge = np.array([0.42, 0.43, 0.0])  # the hinge (0.21, 0.43, 0) carried by the widening
+    turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # pi/2 about +y
+    expected = (widened - hinge) @ turn.T + hinge
+    got = evaluate(program, chair, {"x1": 1.0, "x2": 1.0}).parts["seat"]
+    np.testing.assert_allclose(got, expected, atol=1e-12)
+    np.testing.assert_allclose(evaluate(program, chair, {"x1": 1.0, "x2": 0.0}).parts["seat"], widened, atol=1e-12)
+    for name in cas_backend_names():
+        compiled = compile_program(program, chair, get_cas_backend(name))
+        np.testing.assert_allclose(compiled({"x1": 1.0, "x2": 1.0}).parts["seat"], expected, atol=1e-12)
+    values = {"x1": np.array([0.0, 0.3, 1.0]), "x2": np.array([1.0, 0.5, 0.2])}  # batched like the scalar path
+    batched = evaluate(program, chair, values).parts["seat"]
+    for i in range(3):
+        single = evaluate(program, chair, {k: float(v[i]) for k, v in values.items()}).parts["seat"]
+        np.testing.assert_allclose(batched[i], single, atol=1e-12)
+
+
+def test_outer_layers_round_trip_through_json_and_text():
+    program = _outer_program()
+    assert program.layers == (1, 1) and program.outer == (1,)
+    assert Program.from_json(program.to_json()) == program
+    text = program.to_text()
+    assert "layer on top" in text and "follows=('seat', (0.21, 0.43, 0.0))" in text
+    assert Program.from_text(text) == program
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"outer": [2]}, "outer must list layers 0 to 1"),
+    ({"outer": "1"}, "field 'outer' must be a list"),
+    ({"follows": [{"part": "seat", "point": [0, 0, 0], "ops": [0]}]}, "op 0 is not in an outer layer"),
+    ({"follows": [{"part": "seat", "point": [0, 0], "ops": [1]}]}, "follows.point"),
+    ({"follows": [{"part": "seat", "ops": [1]}]}, "each entry must be an object with part, point and ops"),
+    ({"follows": [{"part": "seat", "point": [0, 0, 1e300], "ops": [1]}]}, "max_magnitude"),
+])
+def test_bad_outer_layers_are_one_line_errors(change, message):
+    data = {**_outer_program().to_dict(), **change}
+    with pytest.raises(ProgramFormatError, match=message):
+        Program.from_dict(data, source="p.json")
+
+
+def test_a_follow_of_an_unknown_part_names_it():
+    from parsel_core.loading import load_shape
+    from parsel_core.program import Follow
+
+    program = _outer_program()
+    bad = Program(program.ops, program.parameters, {}, program.layers, program.outer,
+                  (Follow("sofa", (0.0, 0.0, 0.0), (1,)),))
+    with pytest.raises(UnknownPartError, match="no part 'sofa'"):
+        evaluate(bad, load_shape("chair"), {})

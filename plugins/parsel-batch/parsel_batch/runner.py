@@ -165,7 +165,7 @@ def _edit(case: Case, defaults: RunDefaults) -> tuple[dict[str, Any], dict[str, 
         metadata["request"] = case.request
     metadata.update({"seed": _seed_text(inferred.seed) if inferred.seed is not None else None,
                      "hints": dict(inferred.hints), "breaks": list(inferred.breaks)})
-    program = Program(program.ops, program.parameters, metadata, program.layers)
+    program = program.with_metadata(metadata)
     if report is None:
         report = check_program(shape, program, inferred.breaks)
     report.extra.clear()  # the batch record's own keys, in its own order

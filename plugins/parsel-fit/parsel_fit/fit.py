@@ -195,4 +195,4 @@ def fitted_program(program: Program, result: FitResult, target: str, timings: bo
     parameters = tuple(replace(p, default=result.values[p.name]) for p in program.parameters)
     dropped = {"starts"} | (set() if timings else {"cpu_s", "wall_s"})
     fit = {"target": target, **{k: v for k, v in result.to_dict().items() if k not in dropped}}
-    return Program(program.ops, parameters, {**program.metadata, "fit": fit}, program.layers)
+    return replace(program, parameters=parameters, metadata={**program.metadata, "fit": fit})

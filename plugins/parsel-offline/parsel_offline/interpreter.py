@@ -159,6 +159,8 @@ class Interpreter:
         self.chatter: list[str] = []
         #: Parts the request says to keep, which a whole-object edit does not pick as its seed.
         self.kept: set[str] = set()
+        #: Parts an edit implies stay still (the frame a door opens from), with the reason: ``keep`` hints.
+        self.held: dict[str, str] = {}
 
     # -- vocabulary of this shape ---------------------------------------------------------
 
@@ -270,6 +272,7 @@ class Interpreter:
         primary = clauses[primary_index]
         self.kept = {p for c in clauses if c is not primary and all(it.action == "keep" for it in c.intents)
                      for m in c.mentions if not m.whole for p in m.parts}
+        self.held = {}
         out = Interpretation(request)
         out.reasons.extend(f"I read '{wrong}' as '{right}'." for wrong, right in corrections)
         self.find_breaks(clauses, out)
@@ -282,6 +285,11 @@ class Interpreter:
                 out.ops.extend(self.seed_ops(clause, out.reasons))
             else:
                 self.secondary(clause, primary_parts, out)
+        seeded = {op.target for op in out.ops}
+        for part, reason in self.held.items():
+            if part not in out.hints and part not in seeded:
+                out.hints[part] = out.hint_keys[part] = "keep"
+                out.hint_reasons.append(reason)
         out.ops = list(dict.fromkeys(out.ops))  # the same edit asked twice is one edit, not two compounding
         return out
 
@@ -1089,19 +1097,39 @@ class Interpreter:
         return ops
 
     def edit_open(self, intent: Intent, mention: Mention, clause: Clause, reasons: list[str]) -> list[SeedOp]:
+        """Each door of a pair swings about its own outer front edge, so a mirrored pair opens
+        mirrored; the frame it swings away from stays where it is (a ``keep`` hint, see
+        :meth:`frames`), since opening a door does not move the cabinet."""
         ops = []
-        for comp in self._reps(mention):
-            rep = comp[0]
-            offset = float(self.part(rep).centre[0] - self.centre[0])
+        opened = [p for comp in self._reps(mention) for p in comp]
+        for pid in opened:
+            offset = float(self.part(pid).centre[0] - self.centre[0])
             outer = "left" if offset <= 0 else "right"
             inner_sign = 1 if outer == "left" else -1
             free = np.array([inner_sign, 0.0, 0.0])
             n = np.cross(free, np.array([0.0, 0.0, 1.0]))
             axis_word = _axis_word(1, int(np.sign(n[1])))
-            ops.append(SeedOp("rotate", rep, OPEN_AMOUNT, origin=Origin("edge", rep, (outer, "front")),
+            ops.append(SeedOp("rotate", pid, OPEN_AMOUNT, origin=Origin("edge", pid, (outer, "front")),
                               dirs=(("axis", axis_word),)))
-            reasons.append(f"{rep} opens about its hinge, the {outer} front edge, swinging its free edge to the front.")
+            reasons.append(f"{pid} opens about its hinge, the {outer} front edge, swinging its free edge to the front.")
+        for frame in self.frames(opened):
+            self.held[frame] = f"{frame} is what the {mention.text} swing away from, so it stays where it is"
         return ops
+
+    def frames(self, opened: Sequence[str]) -> list[str]:
+        """Parts an opened part is attached to that hold other parts too (a cabinet's body, not a
+        handle that only rides on the door)."""
+        moving = set(opened)
+        out = []
+        for relation in self.shape.relations.values():
+            if relation.kind != "attachment" or not moving & set(relation.members):
+                continue
+            for other in set(relation.members) - moving:
+                partners = {m for r in self.shape.relations_of(other) if r.kind == "attachment"
+                            for m in r.members} - {other}
+                if partners - moving and other not in out:
+                    out.append(other)
+        return sorted(out)
 
     def edit_taper(self, intent: Intent, mention: Mention, clause: Clause, reasons: list[str]) -> list[SeedOp]:
         main_centre = np.asarray(self.part(self.main_part()).centre)

@@ -63,7 +63,7 @@ def rename_parameters(program: Program, names: dict[str, str]) -> Program:
         tree = _Rename(names).visit(ast.parse(parse_expression(op.amount).text, mode="eval"))
         ops.append(dataclasses.replace(op, amount=ast.unparse(tree)))
     parameters = [Parameter(names.get(p.name, p.name), p.lo, p.hi, p.default) for p in program.parameters]
-    return Program(tuple(ops), tuple(parameters), dict(program.metadata), program.layers)
+    return dataclasses.replace(program, ops=tuple(ops), parameters=tuple(parameters))
 
 
 def stack_programs(programs: Sequence[Program]) -> Program:
@@ -89,7 +89,7 @@ def stack_programs(programs: Sequence[Program]) -> Program:
         used.update(program.parameter_names)
         result = result.plus(program)
     meta = {k: v for k, v in dict(result.metadata).items() if k not in ("request", "seed", "requests")}
-    return Program(result.ops, result.parameters, {**meta, "requests": requests}, result.layers)
+    return result.with_metadata({**meta, "requests": requests})
 
 
 def read_inputs(specs: Sequence[str], shape_spec: str | None = None) -> ViewInputs:

@@ -45,7 +45,7 @@ from parsel_core.ops import (
     Shear,
     Translate,
 )
-from parsel_core.program import Program, anchor_groups
+from parsel_core.program import Program, anchor_groups, follow_weights
 from parsel_core.relations import RotationSymmetry, TranslationSymmetry
 from parsel_core.textform import display_text
 from parsel_view.jsexpr import amounts_script
@@ -155,6 +155,9 @@ def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
     rest = rest_values(program)
     anchors = anchor_groups(program)
     ops = [_op_data(i, op, shape, anchors[i]) for i, op in enumerate(program.ops)]
+    for number, follow in enumerate(program.follows):
+        for i in follow.ops:
+            ops[i]["follow"] = number
     per_group: dict[str, list[tuple[int, GroupOp]]] = {}
     for i, op in enumerate(program.ops):
         if isinstance(op, GroupOp):
@@ -164,6 +167,9 @@ def program_data(program: Program, shape: ShapeGraph) -> dict[str, Any]:
                        for p in program.parameters],
         "ops": ops,
         "layers": [[part.start, part.stop] for part in program.layer_slices],
+        "outer": list(program.outer),
+        "follows": [{"part": f.part, "point": list(f.point), "weights": follow_weights(shape, f).tolist()}
+                    for f in program.follows],
         "groups": [_group_data(g, group_ops, shape) for g, group_ops in per_group.items()],
         "rest": {pid: np.asarray(c, dtype=float).ravel().tolist() for pid, c in shape.rest_corners().items()},
     }

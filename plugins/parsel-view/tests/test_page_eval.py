@@ -197,3 +197,21 @@ def test_the_page_finds_the_relations_python_finds_broken():
             expected = sorted(r for r, e in errors.items() if not e < shape.relations[r].allowance(tolerance))
             assert result["broken"] == expected, value
     assert node_evaluate(build_page_data(sequential, chair), [values[2]])[0]["broken"]  # the old way breaks some
+
+
+def test_outer_layers_with_followed_points_evaluate_like_python(chair):
+    """An outer layer runs after the sum, its following ops carried by their point's shift."""
+    from parsel_core.program import Follow
+
+    first = Program.from_text("param x1 in [0, 1]\nscale_1d(seat, origin=(0, 0.43, 0), dir=(1, 0, 0), amount=x1)\n"
+                              "translate('leg.000', dir=(-1, 0, 0), amount=0.19 * x1)")
+    second = Program.from_text("param x2 in [0, 1]\nscale_1d(seat, origin=(0, 0.43, 0), dir=(0, 1, 0), amount=x2)")
+    turn = Program.from_text("param x3 in [0, 1]\n"
+                             "rotate(seat, origin=(0.2, 0.43, 0), axis=(0, 0, 1), amount=0.5 * x3)\n"
+                             "rotate('leg.000', origin=(0.2, 0.43, 0), axis=(0, 0, 1), amount=0.5 * x3)")
+    program = first.atop(turn, (Follow("seat", (0.2, 0.43, 0.0), (0, 1)),)).plus(second)  # outer layer in the middle
+    page = build_page_data(program, chair)
+    assert page.scene["outer"] == [1] and page.scene["follows"][0]["part"] == "seat"
+    assert [op.get("follow") for op in page.scene["ops"]] == [None, None, 0, 0, None]
+    assert_same(program, chair, [{"x1": 0.0, "x2": 0.0, "x3": 0.0}, {"x1": 0.7, "x2": 0.4, "x3": 0.5},
+                                 {"x1": 1.0, "x2": 1.0, "x3": 1.0}])

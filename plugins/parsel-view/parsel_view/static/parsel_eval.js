@@ -6,7 +6,9 @@
  *      of its targets (on a feature, only that feature's corners); ops without a map here
  *      (plugins') use the one generated from their transform, PARSEL_POINT_MAPS[i]; in a
  *      layered program (scene.layers) each layer runs on the rest corners and the layers'
- *      displacements add, as parsel_core.program._apply_part_ops does;
+ *      displacements add, then the outer layers (scene.outer) run in turn on that sum, each
+ *      following op conjugated by its followed point's shift (scene.follows), as
+ *      parsel_core.program._apply_part_ops does;
  *   3. group layouts (parsel_core/layout.py): instances of the first member as edited;
  *   4. meshes: each vertex holds its 8 trilinear weights in its part's rest hexahedron,
  *      so its position is one (m, 8) @ (8, 3) product with the evaluated corners;
@@ -294,8 +296,9 @@
     return out;
   };
 
-  /* Part ops first..last-1 on `parts`; `fresh` (optional) makes a target's array on first use. */
-  Model.prototype.runOps = function (first, last, parts, amounts, fresh) {
+  /* Part ops first..last-1 on `parts`; `fresh` (optional) makes a target's array on first use;
+   * `shifts` (optional, by follow index) conjugates following ops: p -> op(p - d) + d. */
+  Model.prototype.runOps = function (first, last, parts, amounts, fresh, shifts) {
     var ops = this.scene.ops;
     for (var i = first; i < last; i++) {
       if (ops[i].kind !== "part") continue;
@@ -303,12 +306,33 @@
       if (ops[i].generated && typeof generated !== "function") {
         throw new Error("op " + ops[i].index + " (" + ops[i].op + ") has no point map in program.js");
       }
+      var d = shifts && typeof ops[i].follow === "number" ? shifts[ops[i].follow] : null;
       for (var t = 0; t < ops[i].targets.length; t++) {
         var target = ops[i].targets[t];
         if (fresh && !parts[target]) parts[target] = Float64Array.from(this.rest[target]);
-        applyOp(ops[i], parts[target], amounts[i], generated);
+        var c = parts[target], k;
+        if (d) for (k = 0; k < 24; k++) c[k] -= d[k % 3];
+        applyOp(ops[i], c, amounts[i], generated);
+        if (d) for (k = 0; k < 24; k++) c[k] += d[k % 3];
       }
     }
+  };
+
+  /* How far the layers run so far moved each followed point (parsel_core.program.Follow). */
+  Model.prototype.followShifts = function (first, last, parts) {
+    var shifts = {}, ops = this.scene.ops, follows = this.scene.follows || [];
+    for (var i = first; i < last; i++) {
+      var n = ops[i].follow;
+      if (typeof n !== "number" || shifts[n]) continue;
+      var f = follows[n], c = parts[f.part], d = new Float64Array(3);
+      for (var a = 0; a < 3; a++) {
+        var s = 0;
+        for (var k = 0; k < 8; k++) s += f.weights[k] * c[3 * k + a];
+        d[a] = s - f.point[a];
+      }
+      shifts[n] = d;
+    }
+    return shifts;
   };
 
   /* {parts: {id: Float64Array(24)}, instances: {group: [Float64Array(24)]}, removed: {id: true}} */
@@ -319,13 +343,19 @@
     if (layers.length <= 1) {
       this.runOps(0, this.scene.ops.length, parts, amounts, false);
     } else {
+      var outer = this.scene.outer || [];
       for (i = 0; i < layers.length; i++) {
+        if (outer.indexOf(i) >= 0) continue;
         var layer = table();
         this.runOps(layers[i][0], layers[i][1], layer, amounts, true);
         for (pid in layer) {
           var total = parts[pid], moved = layer[pid], rest = this.rest[pid];
           for (t = 0; t < 24; t++) total[t] = total[t] + (moved[t] - rest[t]);
         }
+      }
+      for (i = 0; i < outer.length; i++) {  /* outer layers: in turn, on the sum, following ops carried */
+        var span = layers[outer[i]];
+        this.runOps(span[0], span[1], parts, amounts, false, this.followShifts(span[0], span[1], parts));
       }
     }
     var instances = table(), removed = table();

@@ -71,8 +71,8 @@ class Outcome:
     sequential: int = 0     # of those, kept on the joint box when stacked with then
     lost: list[str] = field(default_factory=list)
     on_top: int = 0         # layers that turn parts, run on top of the summed ones
-    skew: float = 0.0       # largest |cos| between a part's edges at a box corner (0: every part a box)
-    summed_skew: float = 0.0  # the same with every layer summed, turns too
+    skew: float = 0.0       # shear the combination adds to a part: |cos| between its edges at a box
+    summed_skew: float = 0.0  # corner beyond what any slider alone gives it; the same, every layer summed
     solve_s: float = 0.0
     compose_s: float = 0.0
     check_s: float = 0.0
@@ -120,14 +120,24 @@ def run_shape(path: Path, samples: int) -> Outcome:
         outcome.joint = len(must & kept)
         outcome.sequential = len(must & seq_kept)
         outcome.lost = sorted(must - kept)
-        corners = box_corners(layered.parameters)
         outcome.on_top = len(layered.outer)
-        outcome.skew = max(edge_skew(shape, layered, corners).values())
-        summed = Program(layered.ops, layered.parameters, {}, layered.layers)
-        outcome.summed_skew = max(edge_skew(shape, summed, corners).values())
+        outcome.skew = added_skew(shape, layered)
+        outcome.summed_skew = added_skew(shape, Program(layered.ops, layered.parameters, {}, layered.layers))
     except Exception as exc:  # noqa: BLE001 - a benchmark reports crashes, it does not stop at them
         outcome.error = f"{type(exc).__name__}: {exc}"
     return outcome
+
+
+def added_skew(shape, program: Program) -> float:
+    """The largest shear the combination adds to a part: its edges' |cos| at a box corner
+    beyond the most any one slider gives it moving alone (the solver shears some parts itself)."""
+    joint = edge_skew(shape, program, box_corners(program.parameters))
+    alone = {pid: 0.0 for pid in joint}
+    for moving in program.parameters:
+        values = {p.name: p.hi if p is moving else p.lo for p in program.parameters}
+        for pid, skew in edge_skew(shape, program, values).items():
+            alone[pid] = max(alone[pid], skew)
+    return max((joint[pid] - alone[pid] for pid in joint), default=0.0)
 
 
 def percent(part: int, whole: int) -> str:

@@ -26,7 +26,7 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import corner_jacobians
 from parsel_core.ops import GroupOp
-from parsel_core.program import Follow, Parameter, Program, evaluate
+from parsel_core.program import NUMPY_MATH, Follow, Parameter, Program, evaluate
 
 #: Box corners are enumerated up to this many parameters (2**10 corners); beyond, random ones.
 MAX_CORNER_PARAMETERS = 10
@@ -246,30 +246,51 @@ def _affine_maps(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, float
 
 
 def turns_parts(shape: ShapeGraph, layer: Program, samples: int = 3) -> bool:
-    """Whether the layer turns or shears a part (a linear map that is not diagonal in world axes)."""
-    return bool(_motions(shape, layer, samples)[1])
+    """Whether the layer turns a part: one of its part ops maps the shape's parts by a rotation
+    (a linear map that is orthogonal and not the identity) somewhere in its range.
+
+    Shears and scalings are not turns: the solver shears a part between supports that move
+    apart, and a sheared part summed with another layer's edit stays the sum of two edits
+    that each keep its relations, without a rigid motion to compose."""
+    values = {p.name: np.linspace(p.lo, p.hi, samples + 1)[1:] for p in layer.parameters}
+    rest = shape.rest_corners()
+    for op, amount in zip(layer.ops, _amounts(layer, values)):
+        if op.acts_on != "part" or op.operand not in rest or op.feature is not None:
+            continue
+        moved = np.broadcast_to(op.apply(rest[op.operand], amount[..., None, None], NUMPY_MATH), (samples, 8, 3))
+        affine, residual = _affine_maps(rest[op.operand], moved)
+        linear = affine[:, :3, :]
+        orthogonal = np.abs(np.einsum("sij,skj->sik", linear, linear) - np.eye(3)).max(axis=(1, 2)) < 1e-9
+        turned = np.abs(linear - np.eye(3)).max(axis=(1, 2)) > 1e-9
+        if residual < 1e-9 and np.any(orthogonal & turned):
+            return True
+    return False
 
 
-def _motions(shape: ShapeGraph, layer: Program, samples: int) -> tuple[dict[str, np.ndarray], bool]:
+def _amounts(program: Program, values: Mapping[str, np.ndarray]) -> list[np.ndarray]:
+    from parsel_core.expressions import numpy_functions, parse_expression
+
+    functions = numpy_functions()
+    batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
+    return [np.broadcast_to(np.asarray(parse_expression(op.amount).build(values, functions), dtype=float), batch)
+            for op in program.ops]
+
+
+def _motions(shape: ShapeGraph, layer: Program, samples: int) -> dict[str, np.ndarray]:
+    """Each moved part's affine maps at ``samples`` values of the layer's range (its moved
+    corners where the edit is not affine, a taper: such a part moves alike only with itself)."""
     values = {p.name: np.linspace(p.lo, p.hi, samples + 1)[1:] for p in layer.parameters}
     corners = evaluate(layer, shape, values).parts
     rest = shape.rest_corners()
     maps: dict[str, np.ndarray] = {}
-    turning = False
     for pid, moved in corners.items():
         moved = np.broadcast_to(moved, (samples, 8, 3))
         if pid not in rest or np.allclose(moved, rest[pid], rtol=0, atol=1e-12):
             continue
         affine, residual = _affine_maps(rest[pid], moved)
         scale = max(float(np.ptp(rest[pid], axis=0).max()), 1e-12)
-        if residual > 1e-9 * scale:
-            maps[pid] = moved  # not affine (a taper): it moves alike only with itself
-            continue
-        maps[pid] = affine
-        linear = affine[:, :3, :]
-        off_diagonal = linear - np.einsum("sii->si", linear)[:, :, None] * np.eye(3)
-        turning = turning or bool(np.abs(off_diagonal).max() > 1e-9)
-    return maps, turning
+        maps[pid] = moved if residual > 1e-9 * scale else affine
+    return maps
 
 
 def follows_for(shape: ShapeGraph, layer: Program, samples: int = 3) -> tuple[Follow, ...]:
@@ -280,7 +301,7 @@ def follows_for(shape: ShapeGraph, layer: Program, samples: int = 3) -> tuple[Fo
     origin of the first such op on the set's largest part (the hinge), carried by that part.
     Relations inside the set hold after the shape beneath moved them (one map for all); a
     contact on the turning axis stays on it when the parts beneath keep the axis's direction."""
-    maps, _ = _motions(shape, layer, samples)
+    maps = _motions(shape, layer, samples)
     rest = shape.rest_corners()
     sets: list[list[str]] = []
     for pid in maps:
@@ -305,6 +326,30 @@ def follows_for(shape: ShapeGraph, layer: Program, samples: int = 3) -> tuple[Fo
     return tuple(follows)
 
 
+def _compose(shape: ShapeGraph, base: Program, layer: Program, name: str, request: str) -> Program:
+    """``layer`` added to ``base``: on top if it turns parts, else beneath the turns on top;
+    if the joint check refuses that, with every layer summed (turns too: the relations add,
+    a turned and widened part may shear); refused when that fails too."""
+    attempts = []
+    if turns_parts(shape, layer):
+        # A turn summed with a widening shears the part; on top of the others it turns the
+        # widened part about its carried hinge (docs/aep.md, "Several parameters").
+        attempts.append((base, lambda: base.atop(layer, follows_for(shape, layer))))
+    attempts.append((base, lambda: base.plus(layer)))
+    if base.outer:
+        summed = Program(base.ops, base.parameters, base.metadata, base.layers)
+        attempts.append((summed, lambda: summed.plus(layer)))
+    for number, (before, build) in enumerate(attempts, start=1):
+        try:
+            program = fit_joint_range(shape, build(), name)
+            check_joint_relations(shape, before, program, name, request)
+            return program
+        except ParselError:
+            if number == len(attempts):
+                raise
+    raise AssertionError("unreachable")
+
+
 def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: str,
               name: str | None = None) -> tuple[Program, str]:
     """``layer`` (one request's program, solved on the rest shape) added to ``base`` as a new
@@ -321,26 +366,14 @@ def add_layer(shape: ShapeGraph, base: Program | None, layer: Program, request: 
         name = name or "x1"
         program = layer.renamed(layer.parameters[0].name, name)
         if turns_parts(shape, program):  # later layers go beneath it
-            program = Program(()).atop(program, follows_for(shape, program))
+            program = Program((), ()).atop(program, follows_for(shape, program))
     else:
         if not base.layers and turns_parts(shape, base):
             base = Program((), base.parameters, base.metadata).atop(base, follows_for(shape, base))
         name = name or fresh_name(base)
         if name in base.parameter_names:
             raise ParselError(f"parameter {name!r} is already one of the program's ({', '.join(base.parameter_names)})")
-        renamed = layer.renamed(layer.parameters[0].name, name)
-        program = None
-        if turns_parts(shape, renamed):
-            # A turn summed with a widening shears the part; on top of the others it turns the
-            # widened part about its carried hinge (docs/aep.md, "Several parameters").
-            try:
-                program = fit_joint_range(shape, base.atop(renamed, follows_for(shape, renamed)), name)
-                check_joint_relations(shape, base, program, name, request)
-            except ParselError:
-                program = None
-        if program is None:
-            program = fit_joint_range(shape, base.plus(renamed), name)
-            check_joint_relations(shape, base, program, name, request)
+        program = _compose(shape, base, layer.renamed(layer.parameters[0].name, name), name, request)
     meta: dict[str, Any] = {key: value for key, value in dict(base.metadata if base is not None else {}).items()
                             if key not in ("request", "seed", "requests")}
     meta.update({"shape": shape.name, "requests": base_requests + [{"request": request, "parameter": name}]})

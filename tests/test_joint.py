@@ -303,3 +303,30 @@ def test_edit_on_bad_programs_are_one_line_errors_naming_the_file(tmp_path, caps
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(bad) in err
     assert not any((tmp_path / n).exists() for n in "abc")
+
+
+def test_a_layer_that_does_not_combine_beneath_a_turn_is_tried_with_every_layer_summed(monkeypatch):
+    """When the joint check refuses a layer beneath the turn on top (and on top, if it turns
+    too), add_layer sums every layer, the turn too, as before turns went on top."""
+    import parsel_core.joint as joint
+
+    cabinet = as_shape("cabinet")
+    turn = Program.from_text("".join(
+        f"rotate({part!r}, origin=({side * 0.397}, 0.4875, 0.218), axis=(0, {-side}, 0), amount=pi / 2 * x)\n"
+        for side, parts in ((-1, ("door.000", "handle.000")), (1, ("door.001", "handle.001"))) for part in parts))
+    wider = Program.from_text(CABINET_WIDER)
+    base, _ = add_layer(cabinet, None, turn, "open")
+    assert base.outer == (0,) and len(base.follows) == 2
+    real = joint.check_joint_relations
+
+    def refuse_outer(shape, before, program, name, request):
+        if program.outer:
+            raise ParselError("refused on top")
+        return real(shape, before, program, name, request)
+
+    monkeypatch.setattr(joint, "check_joint_relations", refuse_outer)
+    program, _ = add_layer(cabinet, base, wider, "wider")
+    assert program.outer == () and program.follows == () and program.layers == (4, 1)
+    monkeypatch.setattr(joint, "check_joint_relations", lambda *args: (_ for _ in ()).throw(ParselError("no")))
+    with pytest.raises(ParselError, match="no"):
+        add_layer(cabinet, base, wider, "wider")

@@ -162,8 +162,10 @@ def ground_contacts(table: PartTable, tol: float, size: float) -> list[GroundCon
     """Parts whose lowest corner is within ``tol`` of the shape's floor (lowest y of all parts).
 
     The contact points are the part's lowest corners (a level bottom face gives 4, a
-    tilted one an edge or a corner), and ``height`` is their own height, so the contact
-    holds exactly at rest even for a part a little above the floor.
+    tilted one an edge or a corner), and ``height`` is the floor's: a part detected a
+    little above the floor has that gap as its rest error, which anchoring turns into its
+    allowance (it may drift by as much as detection let it be off), as for every other
+    relation detected less exact than the check (docs/relations.md).
     """
     if not len(table):
         return []
@@ -176,6 +178,5 @@ def ground_contacts(table: PartTable, tol: float, size: float) -> list[GroundCon
             continue
         chosen = np.flatnonzero(heights <= lowest + LEVEL_EPSILON * max(size, 1e-12))
         weights = tuple(tuple(1.0 if k == c else 0.0 for k in range(8)) for c in chosen)
-        out.append(GroundContact(f"ground_{len(out)}", (table.ids[p],), weights,
-                                 height=float(heights[chosen].mean())))
+        out.append(GroundContact(f"ground_{len(out)}", (table.ids[p],), weights, height=float(floor)))
     return out

@@ -95,7 +95,7 @@ def main() -> None:
     paths = sample_programs(args.data, args.shapes, seed=1)
     others = sample_programs(args.data, args.shapes, seed=2)
     rng = np.random.default_rng(0)
-    rows, cross, cpu, failures = [], [], [], []
+    rows, cross, cpu, cross_cpu, failures = [], [], [], [], []
     print(f"{'shape':<16}{'param':>6}{'range':>14}{'known':>9}{'fitted':>9}{'err/range':>10}"
           f"{'CD before':>11}{'CD after':>10}{'CPU s':>7}")
     for path, other in zip(paths, others):
@@ -123,7 +123,9 @@ def main() -> None:
                   f"{error:>10.2%}{tail}")
         other_shape = load_shape(str(other), detect=False)
         other_target = shape_points(other_shape, 2 * args.samples, seed=101)
+        clock = time.process_time()
         fitted = fit_program(shape, program, other_target, starts=args.starts, samples=args.samples)
+        cross_cpu.append(time.process_time() - clock)
         assert fitted.start_values == {p.name: p.default for p in program.parameters}  # the fit starts at rest
         cross.append((shape.name, other_shape.name, fitted.distance_before, fitted.distance_after, shape.size,
                       fitted.no_gain))
@@ -142,6 +144,7 @@ def main() -> None:
     sliders = "one-sided, rest at the lower ends" if centre is None else f"centred, rest at {centre:g}"
     print(f"\n2. fitted to another program of the same category ({sliders}): {lower}/{len(cross)} lower after the "
           f"fit than at rest; after/rest median {statistics.median(ratios):.3f}, max {max(ratios):.3f}")
+    print(f"   CPU per fit: median {statistics.median(cross_cpu):.2f} s, max {max(cross_cpu):.2f} s")
     for name, other_name, before, after, size, why in cross:
         print(f"   {name:<16} -> {other_name:<16} CD at rest {before / size:.4f}, fitted {after / size:.4f} "
               f"(fractions of the diagonal)" + (f"\n      not lower: {why}" if why else ""))

@@ -347,3 +347,24 @@ def test_nested_reflections_stay_within_a_half(shapes):
     assert members(found, ReflectionSymmetry) == {frozenset(p) for p in (("p0", "p3"), ("p1", "p2"), ("p0", "p1"),
                                                                            ("p2", "p3"))}
     assert_hold_at_rest(found)
+
+
+def test_a_part_a_little_above_the_floor_may_drift_by_its_gap():
+    """Ground contacts stand at the floor's height: a part detected 0.005 above it has that gap
+    as its rest error and may drift by it; a part on the floor may not (docs/relations.md)."""
+    from parsel_core.report import tolerance_for
+
+    shape = detect_relations(ShapeGraph([
+        Part("low", "low", Hexahedron.from_bounds((0, 0, 0), (1, 1, 1))),
+        Part("high", "high", Hexahedron.from_bounds((1.5, 0.005, 0), (2.5, 1, 1)))]), families=["ground"])
+    grounds = {r.members[0]: r for r in shape.relations.values() if isinstance(r, GroundContact)}
+    assert set(grounds) == {"low", "high"} and all(r.height == 0.0 for r in grounds.values())
+    tol = tolerance_for(shape)
+    assert grounds["low"].allowance(tol) == tol and grounds["high"].allowance(tol) == pytest.approx(0.005)
+    rest = shape.rest_corners()
+    assert all(float(r.error(rest)) == 0.0 for r in grounds.values())  # anchored: exact at rest
+    for lift, kept in ((0.004, True), (0.006, False)):
+        moved = {**rest, "high": rest["high"] + (0.0, lift, 0.0)}
+        assert (float(grounds["high"].error(moved)) < grounds["high"].allowance(tol)) is kept
+    moved = {**rest, "low": rest["low"] + (0.0, 10 * tol, 0.0)}
+    assert not float(grounds["low"].error(moved)) < grounds["low"].allowance(tol)

@@ -446,15 +446,21 @@ def cmd_apply(args: argparse.Namespace) -> int:
         check_limit("max_sweep", "--sweep", args.sweep)
     options = {"sweep": args.sweep, "progress": shows_progress(), "backend": args.backend}
     suffix = stdout_suffix("-o", args.output, args.format, {x for e in exporters().values() for x in e.extensions})
+    values = parse_assignments(args.set)
+
+    def export(path: str | Path) -> list[Path]:
+        # a sweep counts its files; one file (a watertight remesh takes seconds) says it is working
+        with working("apply", enabled=shows_progress() and args.sweep is None):
+            return api.export(args.shape, args.program, path, values, **options)
+
     if to_stdout(args.output):
         if args.sweep is not None or args.json:
             raise ParselError("-o - writes one file to stdout: --sweep and --json need a file name")
-        write_single(None, written_by(suffix, lambda path: api.export(
-            args.shape, args.program, path, parse_assignments(args.set), **options)))
+        write_single(None, written_by(suffix, export))
         return 0
-    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), **options)
+    paths = export(args.output)
     if args.json:
-        print(json.dumps({"written": [str(p) for p in paths], "values": parse_assignments(args.set)}, indent=1))
+        print(json.dumps({"written": [str(p) for p in paths], "values": values}, indent=1))
         return 0
     for path in paths:
         print(path)

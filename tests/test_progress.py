@@ -130,11 +130,11 @@ def test_edit_says_it_is_working_in_lines_off_a_terminal(tmp_path, capsys, at_on
     assert capsys.readouterr().err == ""
 
 
-def test_check_evaluate_and_inspect_say_they_are_working(tmp_path, capsys, at_once):
+def test_check_evaluate_inspect_and_apply_say_they_are_working(tmp_path, capsys, at_once):
     program = tmp_path / "p.parsel"
     program.write_text("param x in [0, 1]\ntranslate(top, dir=(0, 1, 0), amount=x)\n")
     for argv in (["check", "tiny_table", str(program)], ["evaluate", "tiny_table", str(program)],
-                 ["inspect", "tiny_table"]):
+                 ["inspect", "tiny_table"], ["apply", "tiny_table", str(program), "-o", str(tmp_path / "t.obj")]):
         assert main(argv) == 0
         err = capsys.readouterr().err
         assert "\r" not in err and f"{argv[0]}: working (" in err and f"{argv[0]}: done in " in err, (argv, err)

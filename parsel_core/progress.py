@@ -99,7 +99,9 @@ class _Working:
             from tqdm import tqdm
 
             bar = tqdm(total=None, desc=self.desc, file=self.stream, leave=False, dynamic_ncols=True,
-                       bar_format="{desc}: working ({elapsed})")
+                       bar_format="{desc}: working ({elapsed})", delay=1e-9)  # drawn below, not yet
+            bar.start_t -= self._elapsed()  # the time since the work started, not since the line appeared
+            bar.refresh()
             while not self.stop.wait(0.5):
                 bar.refresh()
             bar.close()

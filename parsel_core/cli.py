@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -13,11 +14,16 @@ from parsel_core.config import check_limit
 from parsel_core.errors import ParselError
 from parsel_core.io import write_all  # noqa: F401 - write_all: the commands' old home
 from parsel_core.outputs import check_output_dir, to_stdout, write_outdir, write_single
+from parsel_core.progress import working
 from parsel_core.verbosity import add_verbosity_options, level_of, logger, shows_progress, verbosity
 
 
 def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], int]:
-    """An argparse type: an integer in [lo, hi], else a one-line ``ParselError`` naming the option."""
+    """An argparse type: an integer in [lo, hi], else a one-line ``ParselError`` naming the option.
+
+    Every numeric option of every verb (plugins' too) takes this or :func:`bounded_float`, so a
+    typo or an out-of-range value is one line and exit status 2, never argparse's usage block
+    or a traceback from deeper down (``tests/test_cli_help.py`` walks them all)."""
     def parse(text: str) -> int:
         try:
             value = int(text)
@@ -28,6 +34,25 @@ def bounded_int(option: str, lo: int, hi: int | None = None) -> Callable[[str], 
             raise ParselError(f"{option} must be an integer {bound}, got {text!r}")
         return value
 
+    parse.bounds = (lo, hi)  # type: ignore[attr-defined]
+    return parse
+
+
+def bounded_float(option: str, lo: float, hi: float | None = None) -> Callable[[str], float]:
+    """An argparse type: a finite number in [lo, hi], else a one-line ``ParselError`` naming the option."""
+    import math
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value) or value < lo or (hi is not None and value > hi):
+            bound = f"from {lo:g} to {hi:g}" if hi is not None else f">= {lo:g}"
+            raise ParselError(f"{option} must be a number {bound}, got {text!r}")
+        return value
+
+    parse.bounds = (lo, hi)  # type: ignore[attr-defined]
     return parse
 
 
@@ -141,7 +166,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
         argv = ["edit", name, "--seed", seed, "-o", str(output)]
     if args.backend:
         argv += ["--backend", args.backend]
-    status = main(argv)
+    loudness = ["--quiet"] if args.quiet else ["--verbose"] if args.verbose else []
+    status = main(argv + loudness)
     if status:
         return status
     program = load_program(output / "program.json")
@@ -163,9 +189,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     commands: set[str] = set()
     get_plugin_manager().hook.parsel_register_commands(subparsers=_Recorder(commands))
     if "view" in commands:
-        main(["view", str(output), "--html", str(output / "slider.html"), "--no-browser"])
+        main(["view", str(output), "-o", str(output / "slider.html"), *loudness])
     if "render" in commands:
-        main(["render", name, str(output / "program.json"), "-o", str(output / "strip.png")])
+        main(["render", name, str(output / "program.json"), "-o", str(output / "strip.png"), *loudness])
     print(f"\nwritten: {', '.join(sorted(p.name for p in output.iterdir() if not p.name.startswith('.')))} "
           f"in {output}/")
     return 0
@@ -192,11 +218,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from parsel_core.plugins import get_cas_backend
     from parsel_core.program import compile_program
 
-    shape = load_shape(args.shape)
-    program = load_program(args.program)
     values = parse_assignments(args.set)
-    backend = get_cas_backend(args.backend)
-    evaluation = compile_program(program, shape, backend)(values)
+    with working("evaluate", enabled=shows_progress()):
+        shape = load_shape(args.shape)
+        program = load_program(args.program)
+        backend = get_cas_backend(args.backend)
+        started = time.perf_counter()
+        evaluation = compile_program(program, shape, backend)(values)
+    logger.debug(f"compiled with {backend.name} and evaluated in {time.perf_counter() - started:.3f} s")
     if args.json:
         data = {
             "values": program.values(values),
@@ -235,9 +264,13 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     from parsel_core.drawing import save_shape_png
     from parsel_core.loading import load_shape
 
-    shape = load_shape(args.shape, detect=not args.no_detect)
-    if args.png:
-        save_shape_png(shape, args.png)
+    with working("inspect", enabled=shows_progress()):
+        started = time.perf_counter()
+        shape = load_shape(args.shape, detect=not args.no_detect)
+        logger.debug(f"loaded {shape.name} with {'its declared' if args.no_detect else 'detected'} relations in "
+                     f"{time.perf_counter() - started:.3f} s")
+        if args.png:
+            save_shape_png(shape, args.png)
     if args.json:
         print(json.dumps(inspect_data(shape), indent=1))
         return 0
@@ -296,11 +329,12 @@ def cmd_edit(args: argparse.Namespace) -> int:
     check_tau(args.tau)
     options = {"tau": args.tau} if args.tau is not None else {}
     try:
-        result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
-                          breaks=list(args.break_ or ()), solver=args.solver, nhbd=not args.no_nhbd,
-                          breaking=not args.no_breaking, replay=args.replay, timeout=args.timeout,
-                          retries=args.retries, with_image=args.with_image, on=args.on, **_language_options(args),
-                          **options)
+        with working("edit", enabled=shows_progress()):
+            result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
+                              breaks=list(args.break_ or ()), solver=args.solver, nhbd=not args.no_nhbd,
+                              breaking=not args.no_breaking, replay=args.replay, timeout=args.timeout,
+                              retries=args.retries, with_image=args.with_image, on=args.on,
+                              **_language_options(args), **options)
     except InferenceError as exc:
         # The record of what was asked and answered is the useful output of a failed inference;
         # a previous OUTDIR is never replaced by it.
@@ -382,8 +416,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     """Recompute the relation report of any program on a shape."""
     from parsel_core import api
 
-    shape = api.as_shape(args.shape)
-    report = api.check(shape, args.program, args.break_ or (), samples=args.samples, backend=args.backend)
+    with working("check", enabled=shows_progress()):
+        shape = api.as_shape(args.shape)
+        report = api.check(shape, args.program, args.break_ or (), samples=args.samples, backend=args.backend)
     counts = report.counts()
     status = 1 if args.strict and counts["broken"] else 0  # --strict: broken relations fail CI
     if args.json:
@@ -411,15 +446,21 @@ def cmd_apply(args: argparse.Namespace) -> int:
         check_limit("max_sweep", "--sweep", args.sweep)
     options = {"sweep": args.sweep, "progress": shows_progress(), "backend": args.backend}
     suffix = stdout_suffix("-o", args.output, args.format, {x for e in exporters().values() for x in e.extensions})
+    values = parse_assignments(args.set)
+
+    def export(path: str | Path) -> list[Path]:
+        # a sweep counts its files; one file (a watertight remesh takes seconds) says it is working
+        with working("apply", enabled=shows_progress() and args.sweep is None):
+            return api.export(args.shape, args.program, path, values, **options)
+
     if to_stdout(args.output):
         if args.sweep is not None or args.json:
             raise ParselError("-o - writes one file to stdout: --sweep and --json need a file name")
-        write_single(None, written_by(suffix, lambda path: api.export(
-            args.shape, args.program, path, parse_assignments(args.set), **options)))
+        write_single(None, written_by(suffix, export))
         return 0
-    paths = api.export(args.shape, args.program, args.output, parse_assignments(args.set), **options)
+    paths = export(args.output)
     if args.json:
-        print(json.dumps({"written": [str(p) for p in paths], "values": parse_assignments(args.set)}, indent=1))
+        print(json.dumps({"written": [str(p) for p in paths], "values": values}, indent=1))
         return 0
     for path in paths:
         print(path)
@@ -432,13 +473,18 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from parsel_core.io import atomic_write_text
     from parsel_core.loading import load_program
 
+    if args.old_output is not None and args.output is not None:
+        raise ParselError(f"convert: the output is {args.old_output!r} or -o {args.output!r}, not both")
+    output = args.output if args.output is not None else args.old_output
+    if args.format and not to_stdout(output):
+        raise ParselError(f"-o {output}: --format is for -o - (standard output); a file's suffix names its form")
     program = load_program(args.program)
-    out = Path(args.output)
-    text = program.to_json() if out.suffix.lower() == ".json" else program.to_text()
-    if args.output == "-":
-        sys.stdout.write(text)
-    else:
-        atomic_write_text(out, text)
+    if to_stdout(output):
+        as_json = args.format == "json" if args.format else Path(args.program).suffix.lower() != ".json"
+        write_single(None, program.to_json() if as_json else program.to_text())
+        return 0
+    out = Path(output)
+    atomic_write_text(out, program.to_json() if out.suffix.lower() == ".json" else program.to_text())
     return 0
 
 
@@ -447,18 +493,31 @@ def cmd_new_plugin(args: argparse.Namespace) -> int:
     from parsel_core.scaffold import write_plugin
 
     target = args.output or f"parsel-{args.name.replace('_', '-')}"
-    for path in write_plugin(args.name, target):
+    paths = write_plugin(args.name, target)
+    if args.json:
+        print(json.dumps({"output": str(target), "written": [str(path) for path in paths]}, indent=1))
+        return 0
+    for path in paths:
         print(path)
     return 0
+
+
+#: ``parsel --help``'s examples.
+TOP_EXAMPLES = ['parsel edit chair "make the chair wider" -o out/ && parsel view out/',
+                "parsel check chair out/program.json --strict",
+                "parsel apply chair out/program.json --set x=0.3 -o wide.glb",
+                "parsel demo"]
 
 
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The command line; ``argv`` (when given) lets it skip plugins the command does not need."""
     from parsel_core import api
+    from parsel_core.cli_help import examples_epilog
 
-    parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language.",
-                                     epilog='example: parsel edit chair "make the chair wider" -o out/ && '
-                                            'parsel view out/')
+    parser = argparse.ArgumentParser(prog="parsel", description="Parameterized shape editing with language. "
+                                     "`parsel COMMAND --help` describes each command, with examples.",
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog=examples_epilog(TOP_EXAMPLES))
     parser.add_argument("--version", action="version", version=f"parsel {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
@@ -469,9 +528,13 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p = sub.add_parser("demo", help="the whole job on a bundled asset: request to program, report and pages")
     p.add_argument("--shape", help="example name or shape file (default: chair, else tiny_table)")
     p.add_argument("--request", help="the edit request (default: make the chair wider)")
-    p.add_argument("--seed", help="use expert mode with this seed op instead of a request")
-    p.add_argument("-o", "--output", default="demo-output", help="output directory (default: demo-output)")
+    p.add_argument("--seed", metavar="OP", help="a seed op in the program text form instead of a request (expert "
+                   "mode)")
+    p.add_argument("-o", "--output", default="demo-output", metavar="OUTDIR",
+                   help="output folder (default: demo-output)")
     _add_backend(p)
+    add_verbosity_options(p, verbose_help="also print the solver's statistics and how long each step took, on "
+                          "stderr")
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("evaluate", help="evaluate a program on a shape at parameter values")
@@ -480,6 +543,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter value (repeatable)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     _add_backend(p)
+    add_verbosity_options(p, verbose_help="also print which backend compiled the program and how long it took")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("edit", help="a request in words (or an expert seed edit) -> a complete editing program")
@@ -500,19 +564,21 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                    help="samples per prompt for majority voting (default 5)")
     p.add_argument("--replay", metavar="FILE", help="recorded replies for the replay provider")
     p.add_argument("--cache", metavar="DIR", help="reply cache directory (off by default)")
-    p.add_argument("--timeout", type=float, metavar="S", help="seconds per model call (litellm; default 60)")
-    p.add_argument("--retries", type=int, metavar="N", help="retries of a call after a rate limit, server error "
-                   "or timeout (litellm; default 3)")
+    p.add_argument("--timeout", type=bounded_float("--timeout", 0.001, 86400), metavar="S",
+                   help="seconds per model call, 0.001 to 86400 (litellm; default 60)")
+    p.add_argument("--retries", type=bounded_int("--retries", 0, 100), metavar="N", help="retries of a call after a "
+                   "rate limit, server error or timeout, 0 to 100 (litellm; default 3)")
     p.add_argument("--with-image", action="store_true", help="send a picture of the shape with part ids along "
                    "with the prompts (models that take images; offline and replay ignore it)")
     p.add_argument("--solver", default="aep", help="solver plugin (default: aep)")
-    p.add_argument("--tau", type=float, help="parameter range [0, tau] (default: chosen automatically)")
+    p.add_argument("--tau", type=bounded_float("--tau", 1e-6), help="parameter range [0, tau], tau from 1e-06 to "
+                   "max_magnitude (default: chosen automatically)")
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
     p.add_argument("--on", metavar="PROGRAM", help="grow this program (program.json of an earlier edit or "
                    "proxydural, or its OUTDIR): the request becomes one more parameter, checked jointly")
-    p.add_argument("-o", "--output", metavar="OUTDIR", help="writes program.json and report.json; - (or no -o): "
-                   "print program.json on stdout instead, the summary on stderr")
+    p.add_argument("-o", "--output", metavar="OUTDIR", help="output folder: program.json, report.json and "
+                   "record.jsonl; - (or no -o): program.json on standard output, the summary on stderr")
     p.add_argument("--json", action="store_true", help="print a machine-readable summary instead of text")
     _add_force(p)
     _add_backend(p)
@@ -532,7 +598,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                        default=5 if name == "proxydural" else 3,
                        help=f"number of {'requests (sliders)' if name == 'proxydural' else 'variants'}, 1 to "
                             f"{api.MAX_REQUESTS} (default {5 if name == 'proxydural' else 3})")
-        p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output directory (written whole)")
+        p.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder (written whole)")
         p.add_argument("--provider", default="offline", help="language-model provider (default: offline)")
         p.add_argument("--model", help="model name for the provider")
         p.add_argument("--api-base", help="base URL of an OpenAI-compatible server (litellm)")
@@ -566,9 +632,10 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("program", help="program file (.json or text form)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter value (repeatable; default: "
                    "the parameter's default)")
-    p.add_argument("--sweep", type=int, metavar="N", help="write N files across the first parameter's range")
-    p.add_argument("-o", "--output", required=True, help="output file; its suffix picks the exporter; - for stdout "
-                   "(with --format)")
+    p.add_argument("--sweep", type=bounded_int("--sweep", 2), metavar="N",
+                   help="write N files (2 to max_sweep) across the first parameter's range")
+    p.add_argument("-o", "--output", metavar="FILE", help="output file; its suffix picks the exporter; - (or no -o): "
+                   "standard output, with --format")
     p.add_argument("--format", metavar="EXT", help="the exporter's format for -o - (glb, obj, ply, sa.txt, ...)")
     p.add_argument("--json", action="store_true", help="print the written paths as JSON")
     _add_backend(p, EVALUATE_BACKEND_HELP)
@@ -581,17 +648,23 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     p.add_argument("--png", metavar="FILE",
                    help="also draw the hexahedra, coloured by label, to FILE (.png, .svg or .pdf)")
     p.add_argument("--no-detect", action="store_true", help="do not run relation detectors")
+    add_verbosity_options(p, verbose_help="also print how long loading and detecting relations took")
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("new-plugin", help="write a plugin package (an edit operator, tests, the conformance kit, "
                                           "CI) to start from")
     p.add_argument("name", help="the operator's and the entry point's name, a lower-case identifier (e.g. taper)")
-    p.add_argument("-o", "--output", metavar="DIR", help="a new folder for the package (default: parsel-NAME)")
+    p.add_argument("-o", "--output", metavar="DIR", help="output folder for the package, a new one (default: "
+                   "parsel-NAME)")
+    p.add_argument("--json", action="store_true", help="print the written files as JSON")
     p.set_defaults(func=cmd_new_plugin)
 
     p = sub.add_parser("convert", help="convert a program between JSON (.json) and text form")
     p.add_argument("program", help="program file (.json or text form)")
-    p.add_argument("output", help="output path; .json for JSON, anything else for text, - for stdout")
+    p.add_argument("old_output", nargs="?", metavar="OUTPUT", help=argparse.SUPPRESS)  # before -o; still works
+    p.add_argument("-o", "--output", metavar="FILE", help="output file: .json for JSON, anything else for the text "
+                   "form; - (or no -o): standard output, in the other form than the input's unless --format")
+    p.add_argument("--format", choices=("json", "text"), help="the form for -o - (standard output): json or text")
     p.set_defaults(func=cmd_convert)
 
     _add_plugin_commands(sub, argv)
@@ -612,9 +685,11 @@ def _add_plugin_commands(sub, argv: Sequence[str] | None) -> None:
 
     command = next((word for word in argv if not word.startswith("-")), None) if argv is not None else ""
     if command is None:
+        from parsel_core.cli_help import plugin_summary
+
         for name, text in plugins.declared_commands().items():
             if name not in sub.choices:
-                sub.add_parser(name, help=text, add_help=False)
+                sub.add_parser(name, help=plugin_summary(name, text), add_help=False)
     elif command not in sub.choices:
         plugins.get_plugin_manager().hook.parsel_register_commands(subparsers=sub)
 

@@ -45,6 +45,26 @@ def _warn_unknown(path: Path, section: dict[str, Any]) -> None:
                       stacklevel=3)
 
 
+def _warn_outside(path: Path, data: dict[str, Any]) -> None:
+    """Keys and tables outside ``[parsel]`` are never read: each is warned about once, naming
+    the setting it looks like (a ``relation_tolerence`` above the table, a ``[parsl]`` table)."""
+    known = (*KNOWN_KEYS, *LIMITS)
+    for key, value in data.items():
+        if key == "parsel" or (str(path), f"/{key}") in _warned:
+            continue
+        _warned.add((str(path), f"/{key}"))
+        if isinstance(value, dict):
+            close = difflib.get_close_matches(key, ["parsel"], n=1)
+            hint = "; did you mean [parsel]?" if close else "; parsel reads only the [parsel] table"
+            warnings.warn(f"{path}: table [{key}] is not read and is ignored{hint}", ConfigWarning, stacklevel=3)
+            continue
+        close = difflib.get_close_matches(key, known, n=1)
+        hint = f"; did you mean {close[0]!r} in the [parsel] table?" if close else (
+            "; parsel reads only the [parsel] table")
+        warnings.warn(f"{path}: {key!r} is outside the [parsel] table and is ignored{hint}", ConfigWarning,
+                      stacklevel=3)
+
+
 def config_path() -> Path:
     """The configuration file: ``PARSEL_CONFIG``, else ``parsel.toml`` in the working directory."""
     return Path(os.environ.get("PARSEL_CONFIG", "parsel.toml"))
@@ -64,6 +84,7 @@ def load_settings() -> dict[str, Any]:
     section = data.get("parsel", {})
     if not isinstance(section, dict):
         raise ParselError(f"{path}: [parsel] must be a table")
+    _warn_outside(path, data)
     _warn_unknown(path, section)
     return section
 
@@ -114,7 +135,7 @@ LIMITS: dict[str, Limit] = {limit.name: limit for limit in (
     Limit("max_expression_chars", 2000, "characters in one amount expression"),
     Limit("max_expression_depth", 200, "nesting depth of one amount expression (a sum of n terms is n deep)"),
     Limit("max_instances", 1000, "instances of one symmetry group after ChangeCount / ChangeDelta"),
-    Limit("max_samples", 10_000, "parameter samples of a relation check (check --samples)"),
+    Limit("max_samples", 10_000, "parameter samples of a relation check (check --steps)"),
     Limit("max_sweep", 1000, "files one apply --sweep writes"),
     Limit("max_magnitude", 1e6, "absolute value of a coordinate, size or amount (in shape units)"),
 )}

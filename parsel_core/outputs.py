@@ -225,6 +225,9 @@ def stdout_suffix(option: str, output: str | Path | None, fmt: str | None, known
             raise ParselError(f"{option} {output}: --format {fmt} is for {option} - (standard output); "
                               "a file's suffix names its format")
         return suffix
+    if output is None:
+        raise ParselError(f"no {option} FILE: name an output file, or the format of standard output with --format "
+                          f"(one of {', '.join(s[1:] for s in known)})")
     if to_stdout(output):
         raise ParselError(f"{option} -: name the format with --format (one of {', '.join(s[1:] for s in known)})")
     return None

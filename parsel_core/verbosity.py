@@ -56,16 +56,19 @@ class _StderrHandler(logging.StreamHandler):
 @contextmanager
 def verbosity(level: int) -> Iterator[None]:
     """Show the ``parsel`` logger's records at ``level`` and above on stderr for the block's duration."""
-    handler = _StderrHandler()
-    handler.setFormatter(logging.Formatter("parsel: %(message)s"))
     previous_level, previous_propagate = logger.level, logger.propagate
-    logger.addHandler(handler)
+    handler = None
+    if not any(isinstance(h, _StderrHandler) for h in logger.handlers):  # one, also for a command run by another (demo)
+        handler = _StderrHandler()
+        handler.setFormatter(logging.Formatter("parsel: %(message)s"))
+        logger.addHandler(handler)
     logger.setLevel(level)
     logger.propagate = False  # one line per record, however the host configured logging
     try:
         yield
     finally:
-        logger.removeHandler(handler)
+        if handler is not None:
+            logger.removeHandler(handler)
         logger.setLevel(previous_level)
         logger.propagate = previous_propagate
 

@@ -185,7 +185,7 @@ def test_apply_output_errors_leave_nothing_behind(files, capsys):
                    "s_001.hex.json", "is a directory")
     assert sorted(p.name for p in tmp.iterdir()) == before
     one_line_error(capsys, ["apply", str(shape), str(program), "--sweep", "0", "-o", str(tmp / "s.hex.json")],
-                   "--sweep needs at least 2")
+                   "--sweep must be an integer >= 2, got '0'")
     constant = tmp / "constant.json"
     data = json.loads(Program.from_text(PROGRAM).to_json())
     data["parameters"], data["ops"][0]["amount"] = [], "0.1"

@@ -9,6 +9,7 @@ import pytest
 from parsel_core.cli import main
 from parsel_core.examples import tiny_table
 from parsel_core.plugins import llm_providers
+from parsel_core.program import Program
 
 from .test_cli import PROGRAM, one_line_error
 
@@ -45,6 +46,7 @@ def test_check_strict_fails_on_broken_relations_only(files, capsys, tmp_path):
     (["check", "tiny_table", "PROGRAM", "--steps", "-3"], "--steps must be an integer from 2 to 100000, got '-3'"),
     (["check", "tiny_table", "PROGRAM", "--steps", "many"], "--steps must be an integer from 2 to 100000"),
     (["check", "tiny_table", "PROGRAM", "--samples", "1"], "--samples must be an integer from 2 to 100000"),
+    (["check", "tiny_table", "PROGRAM", "--samples", "0"], "--samples must be an integer from 2 to 100000, got '0'"),
     (["edit", "tiny_table", "wider", "--samples", "0", "-o", "OUT"], "--samples must be an integer from 1 to 100"),
     (["proxydural", "tiny_table", "-n", "0", "-o", "OUT"], "-n must be an integer from 1 to 20, got '0'"),
     (["proxydural", "tiny_table", "-n", "99", "-o", "OUT"], "-n must be an integer from 1 to 20, got '99'"),
@@ -101,3 +103,82 @@ def test_corner_jacobians_of_nan_corners_are_nan_without_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert np.isnan(corner_jacobians(np.full((8, 3), np.nan))).all()
+
+
+def _json_invocations(tmp_path, program, shape):
+    """verb -> (argv, a check of the parsed document) for every verb that lists --json."""
+    out = str(tmp_path)
+    cases = tmp_path / "cases.jsonl"
+    cases.write_text(json.dumps({"id": "c", "shape": "tiny_table", "seed": TOP_ONLY.splitlines()[1]}) + "\n")
+    target = tmp_path / "target.shape.json"
+    target.write_text(shape.read_text())
+    seed = TOP_ONLY.splitlines()[1]
+    return {
+        "plugins": (["plugins", "--json"], lambda d: "plugins" in d),
+        "evaluate": (["evaluate", "tiny_table", str(program), "--json"], lambda d: d["values"] == {"x": 0.2}),
+        "edit": (["edit", "tiny_table", "--seed", seed, "-o", f"{out}/e", "--json"], lambda d: d["ops"] >= 5),
+        "proxydural": (["proxydural", "tiny_table", "-n", "1", "-o", f"{out}/p", "--json"], lambda d: d["sliders"]),
+        "variations": (["variations", "tiny_table", "make the table wider", "-n", "2", "-o", f"{out}/v", "--json"],
+                       lambda d: d["output"] == f"{out}/v" and len(d["variants"]) == 2),
+        "check": (["check", "tiny_table", str(program), "--json"], lambda d: d["counts"]["broken"] > 0),
+        "apply": (["apply", "tiny_table", str(program), "-o", f"{out}/a.obj", "--json"],
+                  lambda d: d["written"] == [f"{out}/a.obj"]),
+        "inspect": (["inspect", "tiny_table", "--json"], lambda d: d["format"] == "parsel.inspect"),
+        "new-plugin": (["new-plugin", "bend", "-o", f"{out}/parsel-bend", "--json"],
+                       lambda d: any(p.endswith("pyproject.toml") for p in d["written"])),
+        "view": (["view", str(program), "--shape", "tiny_table", "-o", f"{out}/page.html", "--json"],
+                 lambda d: d["written"] == [f"{out}/page.html"] and d["parameters"] == ["x"]),
+        "render": (["render", "tiny_table", str(program), "-o", f"{out}/strip.png", "--frames", "2", "--json"],
+                   lambda d: d["written"] == [f"{out}/strip.png"] and d["parameter"] == "x" and d["frames"] == 2),
+        "fit": (["fit", "tiny_table", str(program), str(target), "-o", f"{out}/fitted.json", "--starts", "1",
+                 "--points", "64", "--json"],
+                lambda d: d["output"] == f"{out}/fitted.json" and set(d["values"]) == {"x"}
+                and d["distance_after"] <= d["distance_before"]),
+        "eval": (["eval", str(cases), "--json"], lambda d: d["format"] == "parsel.eval"),
+        "batch": (["batch", str(cases), "-o", f"{out}/b", "--workers", "0", "--json"], lambda d: d["cases"] == 1),
+    }
+
+
+def test_every_verb_with_json_prints_one_document(files, capsys, tmp_path):
+    """Each verb that lists --json prints a JSON document a program can read (and nothing else on stdout)."""
+    from .test_cli_help import verbs
+
+    _, program, shape = files
+    invocations = _json_invocations(tmp_path, program, shape)
+    listing = {name for name, parser in verbs().items()
+               if any("--json" in action.option_strings for action in parser._actions)}
+    assert listing <= set(invocations), f"verbs with --json but no test: {sorted(listing - set(invocations))}"
+    assert {"edit", "apply", "batch", "proxydural", "variations", "check", "fit"} & set(verbs()) <= listing
+    for verb in sorted(listing):
+        argv, check = invocations[verb]
+        if verb in ("proxydural", "variations") and "offline" not in llm_providers():
+            continue
+        assert main(argv) in (0, 1), verb  # check: 1 for nothing; only --strict fails
+        data = json.loads(capsys.readouterr().out)
+        assert check(data), (verb, data)
+
+
+def test_convert_writes_to_o_or_to_stdout_in_the_other_form(files, capsys, tmp_path):
+    _, program, _ = files
+    assert main(["convert", str(program), "-o", str(tmp_path / "p.json")]) == 0
+    assert main(["convert", str(program)]) == 0  # no -o: stdout, the other form (text in, JSON out)
+    assert capsys.readouterr().out == (tmp_path / "p.json").read_text()
+    assert main(["convert", str(tmp_path / "p.json"), "-o", "-"]) == 0  # JSON in, text out
+    assert capsys.readouterr().out == Program.from_text(PROGRAM).to_text()
+    assert main(["convert", str(program), "--format", "text"]) == 0
+    assert capsys.readouterr().out.startswith("# parsel program\n")
+    assert main(["convert", str(program), str(tmp_path / "old.json")]) == 0  # the old positional still works
+    assert (tmp_path / "old.json").read_text() == (tmp_path / "p.json").read_text()
+    one_line_error(capsys, ["convert", str(program), "-o", str(tmp_path / "x.parsel"), "--format", "json"],
+                   "--format is for -o -")
+    one_line_error(capsys, ["convert", str(program), str(tmp_path / "a.json"), "-o", str(tmp_path / "b.json")],
+                   "not both")
+
+
+def test_apply_without_o_writes_stdout_with_a_format(files, capsys, tmp_path):
+    _, program, _ = files
+    assert main(["apply", "tiny_table", str(program), "-o", str(tmp_path / "t.obj")]) == 0
+    capsys.readouterr()
+    assert main(["apply", "tiny_table", str(program), "--format", "obj"]) == 0
+    assert capsys.readouterr().out == (tmp_path / "t.obj").read_text()
+    one_line_error(capsys, ["apply", "tiny_table", str(program)], "no -o FILE: name an output file, or the format")

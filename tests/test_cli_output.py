@@ -141,3 +141,15 @@ def test_quiet_and_verbose_exclude_each_other(raise_top, capsys):
         main(["check", "tiny_table", str(raise_top), "--quiet", "--verbose"])
     assert done.value.code == 2
     assert "not allowed with argument" in capsys.readouterr().err
+
+
+def test_a_command_run_by_another_logs_each_line_once(capsys):
+    """``parsel demo`` runs edit, view and render through main(): their notes are not doubled."""
+    from parsel_core.verbosity import NORMAL, VERBOSE, logger, verbosity
+
+    with verbosity(NORMAL), verbosity(VERBOSE):
+        logger.debug("inner")
+    with verbosity(NORMAL):
+        logger.info("outer")
+        logger.debug("hidden")
+    assert capsys.readouterr().err == "parsel: inner\nparsel: outer\n"

@@ -68,3 +68,40 @@ def test_limits_are_settings_too(tmp_path, monkeypatch):
         config.load_settings()
     assert [str(w.message).split("ignored")[1] for w in caught] == ["; did you mean 'max_parts'?"]
     assert config.limit("max_parts") == 50
+
+
+def test_keys_and_tables_outside_the_parsel_table_are_warned_about(tmp_path, monkeypatch):
+    """``relation_tolerence = ...`` above ``[parsel]``, or a ``[parsl]`` table, is never read: said so, once."""
+    path = tmp_path / "parsel.toml"
+    path.write_text('relation_tolerence = 0.02\ncas_backend = "sympy"\n[parsl]\nmax_parts = 5\n[parsel]\n'
+                    'max_sweep = 7\n')
+    monkeypatch.setenv("PARSEL_CONFIG", str(path))
+    monkeypatch.setattr(config, "_warned", set())
+    with pytest.warns(config.ConfigWarning) as caught:
+        settings = config.load_settings()
+    assert settings == {"max_sweep": 7}
+    assert sorted(str(w.message).removeprefix(f"{path}: ") for w in caught) == [
+        "'cas_backend' is outside the [parsel] table and is ignored; did you mean 'cas_backend' in the [parsel] "
+        "table?",
+        "'relation_tolerence' is outside the [parsel] table and is ignored; did you mean 'relation_tolerance' in "
+        "the [parsel] table?",
+        "table [parsl] is not read and is ignored; did you mean [parsel]?",
+    ]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        config.load_settings()  # once only
+
+
+def test_a_misspelled_key_reaches_the_command_line_as_one_line(tmp_path):
+    """The issue's case: relation_tolerence in parsel.toml, then a command that reads the settings."""
+    (tmp_path / "parsel.toml").write_text("relation_tolerence = 0.02\n")
+    program = tmp_path / "p.parsel"
+    program.write_text("param x in [0, 1]\ntranslate(top, dir=(0, 1, 0), amount=x)\n")
+    env = {k: v for k, v in __import__("os").environ.items() if k != "PARSEL_CONFIG"}
+    done = subprocess.run([sys.executable, "-m", "parsel_core.cli", "check", "tiny_table", str(program)],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ("parsel: warning: parsel.toml: 'relation_tolerence' is outside the [parsel] table and is "
+                           "ignored; did you mean 'relation_tolerance' in the [parsel] table?\n")

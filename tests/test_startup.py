@@ -6,6 +6,7 @@ import creeping back in, whichever module brings it.
 
 import argparse
 import json
+import re
 import subprocess
 import sys
 from importlib import metadata
@@ -47,8 +48,11 @@ def test_help_imports_no_plugin_and_no_heavy_dependency():
 def test_help_lists_the_commands_plugins_declare():
     help_text = subprocess.run([sys.executable, "-m", "parsel_core.cli", "--help"], capture_output=True, text=True,
                                timeout=120).stdout
-    for command in ("view", "render", "eval", "batch"):
-        assert f"    {command} " in help_text and f"parsel {command} --help" in help_text
+    for command, plugin in (("view", "parsel-view"), ("render", "parsel-view"), ("eval", "parsel-batch"),
+                            ("batch", "parsel-batch")):
+        entry = re.search(rf"\n    {command} +(.*?)(?=\n    \S|\n\n)", help_text, re.S)  # up to the next command
+        line = " ".join(entry.group(1).split())
+        assert line.endswith(f"({plugin})") and len(line.split()) > 5, line  # what it does, from which plugin
 
 
 def test_every_plugin_command_is_declared_for_help():

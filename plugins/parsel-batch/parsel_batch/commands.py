@@ -13,6 +13,7 @@ from parsel_batch.batch import check_dask_address, log_outcome, ordered, read_re
 from parsel_batch.cases import Case, read_cases
 from parsel_batch.metrics import summarise
 from parsel_batch.runner import RunDefaults
+from parsel_core.cli import bounded_int
 from parsel_core.errors import ParselError
 from parsel_core.verbosity import add_verbosity_options, shows_progress
 
@@ -21,6 +22,8 @@ EVAL_VERSION = 1
 #: Exit status when every case ran but some failed (bad input is 2, as everywhere in parsel).
 EXIT_FAILED_CASES = 1
 EXIT_INTERRUPTED = 130
+#: The most local worker processes ``--workers`` takes.
+MAX_WORKERS = 256
 
 
 def available_cpus() -> int:
@@ -169,8 +172,8 @@ def register(subparsers: Any) -> None:
                                           "case failed.")
     p.add_argument("cases", metavar="CASES.jsonl", help="one case per line (schema: docs/evaluation.md)")
     p.add_argument("--json", action="store_true", help="machine-readable output (format parsel.eval)")
-    p.add_argument("--workers", type=int, default=0, metavar="N",
-                   help="local worker processes (default 0: run in this process)")
+    p.add_argument("--workers", type=bounded_int("--workers", 0, MAX_WORKERS), default=0, metavar="N",
+                   help=f"local worker processes, 0 to {MAX_WORKERS} (default 0: run in this process)")
     p.add_argument("--results", metavar="OUTDIR",
                    help="do not run: score the records a `parsel batch` run wrote to OUTDIR")
     p.add_argument("--backend", metavar="NAME", help="CAS backend for cases that do not choose one")
@@ -184,9 +187,10 @@ def register(subparsers: Any) -> None:
                                           "failed (its error is in its record).")
     p.add_argument("cases", metavar="CASES.jsonl", help="one case per line (schema: docs/evaluation.md)")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR",
-                   help="results folder: OUTDIR/<case id>/ and OUTDIR/results.jsonl")
-    p.add_argument("--workers", type=int, metavar="N",
-                   help="local worker processes (default: the CPUs available; 0 runs in this process)")
+                   help="output folder: OUTDIR/<case id>/ and OUTDIR/results.jsonl")
+    p.add_argument("--workers", type=bounded_int("--workers", 0, MAX_WORKERS), metavar="N",
+                   help=f"local worker processes, 0 to {MAX_WORKERS} (default: the CPUs available; 0 runs in this "
+                        "process)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS (tcp://host:8786)")
     p.add_argument("--retry-failed", action="store_true", help="run failed cases again instead of skipping them")
     p.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)  # the old spelling of --quiet

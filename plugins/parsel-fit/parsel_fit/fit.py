@@ -77,16 +77,18 @@ def _starts(count: int, dims: int, seed: int) -> np.ndarray:
 
 def fit_program(shape: ShapeGraph, program: Program, target: np.ndarray, *, starts: int = DEFAULT_STARTS,
                 samples: int = DEFAULT_SAMPLES, seed: int = 0, fixed: dict[str, float] | None = None,
-                xtol: float = 1e-3, backend: str | None = None) -> FitResult:
+                xtol: float = 1e-3, backend: str | None = None, progress: bool = False) -> FitResult:
     """The parameter values (within their ranges) that bring the edited shape closest to ``target``.
 
     ``fixed`` holds parameters that are not fitted; every other parameter is. The starts
     are searched on a quarter of the samples and of the target (coarse), then the best end
     points are polished on all of them (fine); distances reported are the fine ones.
-    ``backend`` evaluates the program compiled by that CAS backend instead of numpy."""
+    ``backend`` evaluates the program compiled by that CAS backend instead of numpy;
+    ``progress`` allows a display on stderr counting the searches (``parsel fit``)."""
     from scipy.optimize import minimize
 
     from parsel_core.program import evaluator
+    from parsel_core.progress import progress as progress_display
 
     cpu0, wall0 = time.process_time(), time.perf_counter()
     program.validate(shape)
@@ -126,8 +128,12 @@ def fit_program(shape: ShapeGraph, program: Program, target: np.ndarray, *, star
     runs = []
     if free:
         ends = []
-        for z_start in [z0, *_starts(starts, len(free), seed)]:
+        z_starts = [z0, *_starts(starts, len(free), seed)]
+        bar = progress_display(len(z_starts) + min(POLISHED, len(z_starts)), "fit searches", unit="search",
+                               enabled=progress)
+        for z_start in z_starts:
             z_end, d = search(z_start, coarse)
+            bar.update(1)
             runs.append({"start": values_of(z_start), "end": values_of(z_end), "coarse_distance": d})
             logger.debug(f"fit start {_short(values_of(z_start))} -> {_short(values_of(z_end))}: "
                          f"coarse distance {d:.5g}")
@@ -140,9 +146,13 @@ def fit_program(shape: ShapeGraph, program: Program, target: np.ndarray, *, star
                 continue  # two starts that ended in the same basin are polished once
             polished.append(z_end)
             z_fine, d = search(z_end, fine)
+            bar.set_postfix_str(f"distance {min(d, best_d):.4g}")
+            bar.update(1)
             logger.debug(f"fit polish {_short(values_of(z_end))} -> {_short(values_of(z_fine))}: distance {d:.5g}")
             if d < best_d:
                 best_z, best_d = z_fine, d
+        bar.update(min(POLISHED, len(z_starts)) - len(polished))  # the polishes one basin saved
+        bar.close()
     no_gain = None
     if not best_d < before:
         no_gain = explain_no_gain(program, free, lambda v: objective(_z_of(free, v)), values_of(z0), before) \

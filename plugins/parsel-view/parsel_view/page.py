@@ -72,8 +72,8 @@ def render_html(page: PageData, inline: bool) -> str:
     return "\n".join(head + body)
 
 
-def write_html(page: PageData, path: Path | str) -> Path:
-    """Write the self-contained page to ``path`` atomically (a temporary file renamed over it)."""
+def check_html_path(path: Path | str) -> Path:
+    """A file name the page can be written to (``.html`` / ``.htm`` in an existing folder), else one line."""
     path = Path(path)
     if not path.name.lower().endswith(HTML_SUFFIXES):
         raise ParselError(f"{path}: the page is HTML; give a file name ending in .html or .htm")
@@ -81,6 +81,12 @@ def write_html(page: PageData, path: Path | str) -> Path:
         raise ParselError(f"{path}: is a directory")
     if not path.parent.is_dir():
         raise ParselError(f"{path}: output directory {path.parent} does not exist")
+    return path
+
+
+def write_html(page: PageData, path: Path | str) -> Path:
+    """Write the self-contained page to ``path`` atomically (a temporary file renamed over it)."""
+    path = check_html_path(path)
     atomic_write_text(path, render_html(page, inline=True))
     return path
 

@@ -89,7 +89,7 @@ def test_bad_inputs_give_one_line_errors_and_no_files(outdir, tmp_path, capsys):
     one_line_error(["render", "table", str(outdir), "-o", str(tmp_path / "strip.png")], capsys,
                    r"program\.json: does not match shape 'table'.*'seat'")
     one_line_error(["render", "chair", str(outdir), "-o", str(tmp_path / "strip.png"), "--frames", "0"], capsys,
-                   r"--frames must be between 1 and 24")
+                   r"--frames must be an integer from 1 to 24, got '0'")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
     assert list(outdir.iterdir()) == [outdir / "program.json"]
 

@@ -149,10 +149,32 @@ def test_render_to_stdout_writes_the_picture_bytes(tmp_path, capfdbinary):
     assert [p.name for p in tmp_path.iterdir()] == ["widen.parsel"]
 
 
-def test_view_html_to_stdout(tmp_path, capsys):
+@pytest.mark.parametrize("flag", ["-o", "--output", "--html"])  # --html: the old spelling
+def test_view_page_to_stdout(tmp_path, capsys, flag):
     program_path = tmp_path / "widen.parsel"
     program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
-    assert main(["view", str(program_path), "--shape", "tiny_table", "--html", "-"]) == 0
+    assert main(["view", str(program_path), "--shape", "tiny_table", flag, "-"]) == 0
     out = capsys.readouterr().out
     assert out.lstrip().lower().startswith("<!doctype html>") and "</html>" in out
     assert [p.name for p in tmp_path.iterdir()] == ["widen.parsel"]
+
+
+def test_view_writes_the_page_with_o_as_with_html(tmp_path, capsys):
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
+    assert main(["view", str(program_path), "--shape", "tiny_table", "-o", str(tmp_path / "a.html")]) == 0
+    assert main(["view", str(program_path), "--shape", "tiny_table", "--html", str(tmp_path / "b.html")]) == 0
+    assert capsys.readouterr().out == f"{tmp_path / 'a.html'}\n{tmp_path / 'b.html'}\n"
+    assert (tmp_path / "a.html").read_text() == (tmp_path / "b.html").read_text()
+    assert main(["view", str(program_path), "-o", "x.html", "--html", "y.html"]) == 2
+    assert "not both" in capsys.readouterr().err
+
+
+def test_render_without_o_writes_stdout_with_a_format(tmp_path, capfdbinary):
+    program_path = tmp_path / "widen.parsel"
+    program_path.write_text(TABLE_PROGRAM, encoding="utf-8")
+    assert main(["render", "tiny_table", str(program_path), "--format", "png", "--frames", "2", "--quiet"]) == 0
+    captured = capfdbinary.readouterr()
+    assert Image.open(__import__("io").BytesIO(captured.out)).format == "PNG" and captured.err == b""
+    assert main(["render", "tiny_table", str(program_path)]) == 2
+    assert b"no -o FILE: name an output file, or the format" in capfdbinary.readouterr().err

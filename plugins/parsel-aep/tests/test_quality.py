@@ -165,13 +165,26 @@ def test_legs_under_a_seat_widened_off_their_mirror_plane_each_move_out_by_their
 
 
 def test_stretchers_between_legs_of_different_heights_tilt_with_them():
-    """chair/1746: legs of heights 0.547-0.563 lengthened to meet the seat: the stretchers
-    between them must tilt (a shear) to keep both ends attached."""
+    """chair/1746: legs of heights 0.547-0.563, standing 0-0.016 above the floor, lengthened
+    to meet the seat. Each leg's ground contact may drift by its gap to the floor, so one
+    scaling about the floor keeps everything; held where each leg stands instead (its own
+    bottom, no gap), the legs scale about their own bottoms and the stretchers between them
+    must tilt (a shear) to keep both ends attached."""
+    import dataclasses
+
     seed = "scale_1d('Program_1/cube0', origin=(-0.305769, -0.776424, -0.295568), dir=(0, 1, 0), amount=0.5*x)"
-    _, result, report = joint_case("chair_1746", seed)
+    shape, result, report = joint_case("chair_1746", seed)
     assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
-    assert any(op.name == "shear" for op in result.program.ops)
-    assert result.stats["joint_repairs"] == 1
+    rest = shape.rest_corners()
+    standing = shape.with_relations(
+        dataclasses.replace(r, height=r.height + float(r.constraint(rest).mean()), rest_offset=()).anchored(rest)
+        if r.kind == "ground" else r for r in shape.relations.values())
+    assert all(r.rest_error == 0.0 for r in standing.relations.values() if r.kind == "ground")
+    held = propagate(SolveRequest(standing, Program.from_text(seed)))
+    report = check_program(standing, held.program)
+    assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
+    assert any(op.name == "shear" for op in held.program.ops)
+    assert held.stats["joint_repairs"] == 1
 
 
 def test_the_joint_system_of_an_attached_part_is_a_translation_only():

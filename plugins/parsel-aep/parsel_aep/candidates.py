@@ -63,45 +63,89 @@ def candidate_family(op: EditOp) -> str:
     return f"{kind}_{'translate' if op.name == 'translate' else 'scale'}"
 
 
+#: own_candidates' merged lists by (part, rest corners, hint): the loop, the repair passes
+#: and the joint pass search the same parts again (bounded; cleared when full).
+_OWN: dict[tuple, tuple[EditOp, ...]] = {}
+_OWN_SIZE = 256
+
+
 def own_candidates(part: str, hexahedron: Hexahedron, hint: str | None = None) -> list[EditOp]:
-    """Every merged candidate for ``part`` from its own features, filtered by a type hint."""
+    """Every merged candidate for ``part`` from its own features, filtered by a type hint.
+
+    The ops are frozen and shared between calls on the same box (a new list each time).
+    """
+    key = (part, np.asarray(hexahedron.corners, dtype=float).tobytes(), hint)
+    ops = _OWN.get(key)
+    if ops is None:
+        if len(_OWN) >= _OWN_SIZE:
+            _OWN.clear()
+        ops = _OWN[key] = tuple(_own_candidates(part, hexahedron, hint))
+    return list(ops)
+
+
+def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list[EditOp]:
     points = hexahedron.feature_points
     dirs = directions(hexahedron)
     out: dict[tuple, EditOp] = {}
+    # Keys first, each op built only the first time its key appears (the first one is kept).
+    point_vecs = [_vec(p) for p in points]
+    dir_vecs = [_vec(d) for d in dirs]
+    dir_keys = [_key(d) for d in dirs]
 
-    def add(key: tuple, op: EditOp) -> None:
-        out.setdefault(key, op)
-
-    for d in dirs:
-        add(("translate", _key(d)), Translate(part, "f", dir=_vec(d)))
-    for n in dirs:
-        for p in points:
-            add(("scale_1d", _key(n), round(float(p @ n), 7)), Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
-            in_plane = p - (p @ n) * n
-            add(("scale_2d", _key(n), _key(in_plane)), Scale2D(part, "f", origin=_vec(p), normal=_vec(n)))
-            add(("rotate", _key(n), _key(in_plane)), Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
-        for d in dirs:
+    for dv, dk in zip(dir_vecs, dir_keys):
+        key = ("translate", dk)
+        if key not in out:
+            out[key] = Translate(part, "f", dir=dv)
+    for n, nv, nk in zip(dirs, dir_vecs, dir_keys):
+        heights = []
+        for p, pv in zip(points, point_vecs):
+            along = p @ n
+            height = round(float(along), 7)
+            heights.append(height)
+            key = ("scale_1d", nk, height)
+            if key not in out:
+                out[key] = Scale1D(part, "f", origin=pv, dir=nv)
+            plane = _key(p - along * n)
+            key = ("scale_2d", nk, plane)
+            if key not in out:
+                out[key] = Scale2D(part, "f", origin=pv, normal=nv)
+            key = ("rotate", nk, plane)
+            if key not in out:
+                out[key] = Rotate(part, "f", origin=pv, axis=nv)
+        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             if abs(float(n @ d)) > 1e-6:
                 continue
-            for p in points:
-                add(("shear", _key(n), _key(d), round(float(p @ n), 7)),
-                    Shear(part, "f", origin=_vec(p), normal=_vec(n), dir=_vec(d)))
-    for p in points:
-        add(("scale_3d", _key(p)), Scale3D(part, "f", origin=_vec(p)))
+            for pv, height in zip(point_vecs, heights):
+                key = ("shear", nk, dk, height)
+                if key not in out:
+                    out[key] = Shear(part, "f", origin=pv, normal=nv, dir=dv)
+    for p, pv in zip(points, point_vecs):
+        key = ("scale_3d", _key(p))
+        if key not in out:
+            out[key] = Scale3D(part, "f", origin=pv)
     corners = hexahedron.corners
     for face in FACE_NAMES:
         face_points = corners[list(feature_corners(face))]
         normal = hexahedron.face_normal(face)
-        for d in dirs:
-            add(("face_translate", face, _key(d)), Translate(part, "f", feature=face, dir=_vec(d)))
+        face_points = np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)])
+        face_vecs = None
+        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
+            key = ("face_translate", face, dk)
+            if key not in out:
+                out[key] = Translate(part, "f", feature=face, dir=dv)
             if abs(float(d @ normal)) > 0.9:
                 continue  # scaling a face along its normal only moves it: a face translation
-            for p in np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)]):
-                add(("face_scale", face, _key(d), round(float(p @ d), 7)),
-                    Scale1D(part, "f", feature=face, origin=_vec(p), dir=_vec(d)))
+            if face_vecs is None:
+                face_vecs = [_vec(p) for p in face_points]
+            for p, pv in zip(face_points, face_vecs):
+                key = ("face_scale", face, dk, round(float(p @ d), 7))
+                if key not in out:
+                    out[key] = Scale1D(part, "f", feature=face, origin=pv, dir=dv)
     for edge in EDGE_NAMES:
-        for d in dirs:
-            add(("edge_translate", edge, _key(d)), Translate(part, "f", feature=edge, dir=_vec(d)))
+        for dv, dk in zip(dir_vecs, dir_keys):
+            key = ("edge_translate", edge, dk)
+            if key not in out:
+                out[key] = Translate(part, "f", feature=edge, dir=dv)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
@@ -136,14 +180,34 @@ def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Seque
             if np.linalg.norm(line) > 1e-9:
                 add(Translate(part, "f", dir=_vec(line / np.linalg.norm(line))))
     for neighbour in neighbour_hexahedra:
+        points = [_vec(p) for p in neighbour.feature_points]
         for n in directions(neighbour):
-            for p in neighbour.feature_points:
-                add(Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
-                add(Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
-            add(Translate(part, "f", dir=_vec(n)))
-        for p in neighbour.feature_points:
-            add(Scale3D(part, "f", origin=_vec(p)))
+            n = _vec(n)
+            for p in points:
+                _add_made(out, Rotate, part, origin=p, axis=n)
+                _add_made(out, Scale1D, part, origin=p, dir=n)
+            _add_made(out, Translate, part, dir=n)
+        for p in points:
+            _add_made(out, Scale3D, part, origin=p)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
     return ops
+
+
+#: Ops built from the same class, operand and parameters, with their merge key (bounded).
+_MADE: dict[tuple, tuple[tuple, EditOp]] = {}
+_MADE_SIZE = 200_000
+
+
+def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:
+    """``out.setdefault(key, cls(part, "f", **params))`` keyed as :func:`neighbour_candidates`
+    merges (the op's normalised parameters), the op built once per process and shared."""
+    made_key = (cls, part, *params.items())
+    made = _MADE.get(made_key)
+    if made is None:
+        if len(_MADE) >= _MADE_SIZE:
+            _MADE.clear()
+        op = cls(part, "f", **params)
+        made = _MADE[made_key] = ((op.name, tuple(sorted(op.params().items()))), op)
+    out.setdefault(*made)

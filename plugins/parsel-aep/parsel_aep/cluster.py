@@ -23,7 +23,7 @@ cluster's edits only when the whole shape's error goes down.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -54,6 +54,9 @@ class ClusterSystem:
     weights: np.ndarray             # (B,) corner displacement per unit basis amount
     costs: np.ndarray               # (B,) preference: translations, then scalings, then shears
     allowances: np.ndarray          # (R,) each constraint's allowed drift
+    #: :func:`solver`'s matrices by their inputs: the passes of :func:`solve` meet the same
+    #: system again (a kept set both drops reach, reweighting that has settled).
+    solved: dict = field(default_factory=dict, repr=False, compare=False)
 
 
 def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = False) -> Compound:
@@ -153,18 +156,40 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
     when the system can be met exactly).
     """
     p = _prior(system) if prior is None else prior
+    key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+    out = system.solved.get(key)
+    if out is not None:
+        return out
     a = system.slopes[:, columns].T * p                                               # (K', B)
     if rows is not None:
         a = a * rows[:, None]
     norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
     out = np.linalg.pinv(a / norm, rcond=1e-9) / norm * p[:, None]
-    return out * rows[None, :] if rows is not None else out
+    if rows is not None:
+        out = out * rows[None, :]
+    out.flags.writeable = False
+    system.solved[key] = out
+    return out
 
 
 def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
     """Largest |residual| over the samples, per constraint, for amounts ``f`` (S, B)."""
     residual = np.abs(system.r0 + f @ system.slopes)
-    return np.array([residual[:, s].max(initial=0.0) for s in system.slices])
+    return _slice_max(residual.max(axis=0, initial=0.0), system.slices)
+
+
+def _slice_max(values: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
+    """``values[s].max(initial=0.0)`` for each of the consecutive ``slices`` (R,)."""
+    out = np.zeros(len(slices))
+    starts = np.array([s.start for s in slices], dtype=int)
+    filled = np.array([s.stop > s.start for s in slices], dtype=bool)
+    consecutive = all(a.stop == b.start for a, b in zip(slices, slices[1:])) and (
+        not slices or slices[-1].stop == len(values))
+    if not consecutive:
+        return np.array([values[s].max(initial=0.0) for s in slices])
+    if filled.any():
+        out[filled] = np.maximum.reduceat(values, starts[filled])
+    return out
 
 
 def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
@@ -256,7 +281,9 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """
     everything = list(range(len(system.constraints)))
     best = None
-    for start in (everything, _sparse_breaks(system)):
+    for start in (everything, None):
+        if start is None:  # only needed when not everything can be kept
+            start = _sparse_breaks(system)
         f, matrix, kept = _drop_until_kept(system, start)
         errors = relation_errors(system, f) / system.allowances
         score = (-len(kept), float(np.sum(errors[errors >= 1.0])))

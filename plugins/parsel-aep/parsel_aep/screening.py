@@ -16,12 +16,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cache
 from types import SimpleNamespace
 
 import numpy as np
 
 from parsel_aep.compound import Compound
-from parsel_core.ops import EditOp, Rotate
+from parsel_core.hexahedron import feature_corners
+from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate
 from parsel_core.relations import Relation
 
 NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos)
@@ -64,7 +66,84 @@ def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndar
 
 
 def _apply_all(ops: Sequence[EditOp], rest: np.ndarray, amount: float) -> np.ndarray:
-    return np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])
+    """Every op applied to the rest corners (8, 3) at one amount: (N, 8, 3).
+
+    The ops of one class on one feature are applied together (:func:`_apply_batch`); any
+    other op (an :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``.
+    """
+    out = np.empty((len(ops), 8, 3))
+    groups: dict[tuple, list[int]] = {}
+    for i, op in enumerate(ops):
+        if type(op) in _BATCHED:
+            groups.setdefault((type(op), op.feature), []).append(i)
+        else:
+            out[i] = op.apply(rest, amount, NUMPY_MATH)
+    for (kind, feature), index in groups.items():
+        out[index] = _apply_batch(kind, feature, [ops[i] for i in index], rest, amount)
+    return out
+
+
+def _column(ops: Sequence[EditOp], name: str) -> np.ndarray:
+    """A vector field of every op, shaped (G, 1, 3) to broadcast over the corners."""
+    return np.array([getattr(op, name) for op in ops], dtype=float)[:, None, :]
+
+
+def _dot(points: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """``parsel_core.ops._dot`` with one vector per op (the same arithmetic, term by term)."""
+    return points[..., 0:1] * n[..., 0:1] + points[..., 1:2] * n[..., 1:2] + points[..., 2:3] * n[..., 2:3]
+
+
+def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``parsel_core.ops._cross`` with one vector per op."""
+    x, y, z = points[..., 0:1], points[..., 1:2], points[..., 2:3]
+    a, b, c = n[..., 0:1], n[..., 1:2], n[..., 2:3]
+    return np.concatenate([b * z - c * y, c * x - a * z, a * y - b * x], axis=-1)
+
+
+def _apply_batch(kind: type, feature: str | None, ops: Sequence[EditOp], rest: np.ndarray,
+                 amount: float) -> np.ndarray:
+    """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class
+    on one feature, with the operations of each op's ``transform`` in the same order, so the
+    result is the same to the last bit."""
+    index = None if feature is None else list(_corner_indices(feature))
+    points = rest if index is None else rest[index]
+    if kind is Translate:
+        moved = points + _column(ops, "dir") * amount
+    elif kind is Rotate:
+        o, axis = _column(ops, "origin"), _column(ops, "axis")
+        centred = points - o
+        cos, sin = NUMPY_MATH.cos(amount), NUMPY_MATH.sin(amount)
+        rotated = centred * cos + _cross(axis, centred) * sin + _dot(centred, axis) * axis * (1 - cos)
+        moved = o + rotated
+    elif kind is Scale1D:
+        o, d = _column(ops, "origin"), _column(ops, "dir")
+        centred = points - o
+        moved = o + centred + _dot(centred, d) * d * amount
+    elif kind is Scale2D:
+        o, n = _column(ops, "origin"), _column(ops, "normal")
+        centred = points - o
+        along = _dot(centred, n) * n
+        moved = o + (centred - along) * (1 + amount) + along
+    elif kind is Scale3D:
+        o = _column(ops, "origin")
+        moved = o + (points - o) * (1 + amount)
+    else:  # Shear
+        o, n, d = _column(ops, "origin"), _column(ops, "normal"), _column(ops, "dir")
+        centred = points - o
+        moved = o + centred + _dot(centred, n) * d * amount
+    if index is None:
+        return moved
+    out = np.array(np.broadcast_to(rest, (len(ops), 8, 3)))
+    out[:, index, :] = moved
+    return out
+
+
+_BATCHED = frozenset({Translate, Rotate, Scale1D, Scale2D, Scale3D, Shear})
+
+
+@cache
+def _corner_indices(feature: str) -> tuple[int, ...]:
+    return feature_corners(feature)
 
 
 def relation_max_errors(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
@@ -160,6 +239,23 @@ def _broken_ids(system: _System, errors: np.ndarray, tolerance: float) -> tuple[
     return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
 
 
+def _broken_ids_all(system: _System, errors: np.ndarray, tolerance: float) -> list[tuple[str, ...]]:
+    """:func:`_broken_ids` of every row of ``errors`` (N, R); rows with the same broken
+    constraints share one tuple."""
+    allowed = np.maximum(tolerance, system.rest_errors)
+    broken = ~(errors < allowed)
+    keys = np.packbits(broken, axis=-1)
+    known: dict[bytes, tuple[str, ...]] = {}
+    out = []
+    for row, key in zip(broken, keys):
+        key = key.tobytes()
+        ids = known.get(key)
+        if ids is None:
+            ids = known[key] = tuple(system.ids[i] for i in np.flatnonzero(row))
+        out.append(ids)
+    return out
+
+
 def _rotation_residual(system: _System, n: int, f: np.ndarray) -> np.ndarray:
     gamma = system.r0 - system.offset[n]
     return (system.matrix[n] @ np.stack([np.cos(f), np.sin(f)])).T + gamma
@@ -186,22 +282,21 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
             f, usable = _affine_amounts(system.r0, system.slope, columns)
             residual = system.r0[None] + f[:, :, None] * system.slope[:, None, :]
             errors = relation_max_errors(residual, system.slices)
-            for n, (index, op) in enumerate(system.affine):
-                if usable[n]:
-                    broken = _broken_ids(system, errors[n], tolerance)
-                    results.append(Screened(op, index, f[n], broken, "affine", system.slope[n], system.r0,
-                                            errors[n]))
+            broken = _broken_ids_all(system, errors, tolerance)
+            for n in np.flatnonzero(usable):
+                index, op = system.affine[n]
+                results.append(Screened(op, index, f[n], broken[n], "affine", system.slope[n], system.r0, errors[n]))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
             residual = (np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
                         + system.r0[None] - system.offset[:, None, :])
             errors = relation_max_errors(residual, system.slices)
-            for n, (index, op) in enumerate(system.rotations):
-                if usable[n]:
-                    broken = _broken_ids(system, errors[n], tolerance)
-                    results.append(Screened(op, index, f_all[n], broken, "rotation", system.matrix[n],
-                                            system.offset[n], errors[n]))
+            broken = _broken_ids_all(system, errors, tolerance)
+            for n in np.flatnonzero(usable):
+                index, op = system.rotations[n]
+                results.append(Screened(op, index, f_all[n], broken[n], "rotation", system.matrix[n],
+                                        system.offset[n], errors[n]))
         for index, compound, slopes in system.compounds or ():
             f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
             residual = system.r0 + f @ slopes

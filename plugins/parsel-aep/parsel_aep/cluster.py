@@ -22,6 +22,7 @@ cluster's edits only when the whole shape's error goes down.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -198,13 +199,128 @@ def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
     return np.concatenate([np.arange(system.slices[i].start, system.slices[i].stop) for i in kept])
 
 
-def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
+class _Borderline(Exception):
+    """A decision of the numerical plan too close to call with one BLAS thread's rounding."""
+
+
+#: What a fast solve may raise instead of deciding: the step is then decided exactly.
+_REFUSED = (_Borderline, np.linalg.LinAlgError, FloatingPointError)
+
+
+class _Numerics:
+    """How :func:`solve` solves while it decides: the exact solver, or a fast one.
+
+    The decisions of :func:`solve` (which constraints to drop, which amounts to leave out)
+    are discrete, and its result is one last solve fixed by them. The decisions can be
+    made on one BLAS thread: OpenBLAS's threads make the SVD of a 500 x 200 system 20-50
+    times costlier in CPU time on a shared machine, and change its last bits. ``fast``
+    numerics raise :class:`_Borderline` whenever a decision is within ``MARGIN`` (relative)
+    of going the other way, or a singular value is near pinv's cutoff; that step is then
+    decided again with the exact solver (:attr:`exact`). The final solve is always the
+    exact one, so the result is the one the exact decisions give, bit for bit.
+    """
+
+    #: Relative distance from a threshold that a fast decision must keep.
+    MARGIN = 1e-6
+    #: Relative distance from pinv's cutoff that a fast singular value must keep.
+    CUTOFF_MARGIN = 1e-4
+
+    def __init__(self, system: ClusterSystem, fast: bool) -> None:
+        self.system, self.fast = system, fast
+        self.solved: dict = {}
+        self.exact = _Numerics(system, fast=False) if fast else self
+
+    def matrix(self, columns: np.ndarray, rows: np.ndarray | None = None,
+               prior: np.ndarray | None = None) -> np.ndarray:
+        """:func:`solver`, or its fast counterpart (one BLAS thread, refused near the cutoff)."""
+        if not self.fast:
+            return solver(self.system, columns, rows, prior)
+        p = _prior(self.system) if prior is None else prior
+        key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+        out = self.solved.get(key)
+        if out is None:
+            a = self.system.slopes[:, columns].T * p
+            if rows is not None:
+                a = a * rows[:, None]
+            norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+            with one_blas_thread():
+                out = _guarded_pinv(a / norm, 1e-9, self.CUTOFF_MARGIN) / norm * p[:, None]
+            if rows is not None:
+                out = out * rows[None, :]
+            self.solved[key] = out
+        return out
+
+    def below(self, values: np.ndarray, limits) -> np.ndarray:
+        """``values < limits``; fast: refused (:class:`_Borderline`) near equality or for
+        values that are not finite."""
+        values = np.asarray(values, dtype=float)
+        limits = np.broadcast_to(np.asarray(limits, dtype=float), values.shape)
+        if self.fast and (not np.all(np.isfinite(values))
+                          or np.any(np.abs(values - limits) <= self.MARGIN * np.abs(limits))):
+            raise _Borderline
+        return values < limits
+
+    def worst(self, ratios: Sequence[tuple[float, int]]) -> tuple[float, int]:
+        """``max(ratios)``; fast: refused when the two largest are within the margin."""
+        best = max(ratios)
+        if self.fast and len(ratios) > 1:
+            second = sorted(ratios)[-2]
+            if best[0] - second[0] <= self.MARGIN * abs(best[0]):
+                raise _Borderline
+        return best
+
+    def less(self, a: float, b: float) -> bool:
+        """``a < b`` for two error totals; fast: refused when they are within the margin."""
+        if self.fast and (not (np.isfinite(a) and np.isfinite(b)) or abs(a - b) <= self.MARGIN * max(abs(a), abs(b))):
+            raise _Borderline
+        return a < b
+
+    def positive(self, value: float, columns: np.ndarray) -> bool:
+        """``value > 0`` for the largest amount; fast: refused for an amount that could be a
+        rounding of zero (exactly zero only when the residuals are)."""
+        if self.fast:
+            if value == 0.0 and not np.any(self.system.r0[:, columns]):
+                return False
+            if not value > 1e-250:
+                raise _Borderline
+        return bool(value > 0)
+
+
+def _guarded_pinv(a: np.ndarray, rcond: float, margin: float) -> np.ndarray:
+    """``np.linalg.pinv(a, rcond)``, refused (:class:`_Borderline`) when a singular value is
+    within ``margin`` (relative) of the cutoff: which directions it keeps is then rounding."""
+    if a.size == 0:
+        return np.zeros(a.shape[::-1])
+    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    cutoff = rcond * s.max(initial=0.0)
+    if not cutoff > 0:  # a zero matrix (or not finite: refused)
+        if np.all(s == 0):
+            return np.zeros(a.shape[::-1])
+        raise _Borderline
+    if np.any(np.abs(s - cutoff) <= margin * cutoff):
+        raise _Borderline
+    large = s > cutoff
+    inverse = np.divide(1.0, s, out=np.zeros_like(s), where=large)
+    return vt.T @ (inverse[:, None] * u.T)
+
+
+def _sparse_breaks(system: ClusterSystem, iterations: int = 12, numerics: _Numerics | None = None) -> list[int]:
     """The constraints to keep, chosen by iteratively reweighted least squares.
 
     Minimising the sum of the relations' errors (not their squares) breaks few relations
     by a lot rather than many by a little: each pass weighs a relation's rows by
     ``1 / sqrt(its error over its allowance)``.
     """
+    numerics = numerics or _Numerics(system, fast=False)
+    try:
+        return _reweighted(system, iterations, numerics)
+    except _REFUSED:
+        if not numerics.fast:
+            raise
+        return _reweighted(system, iterations, numerics.exact)
+
+
+def _reweighted(system: ClusterSystem, iterations: int, numerics: _Numerics) -> list[int]:
     everything = list(range(len(system.constraints)))
     columns = _columns(system, everything)
     sizes = np.array([s.stop - s.start for s in system.slices])
@@ -212,9 +328,10 @@ def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
     for _ in range(iterations):
         weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
         rows = np.repeat(weight / np.sqrt(sizes), sizes)
-        f = _amounts(system, solver(system, columns, rows), columns)
+        f = _amounts(system, numerics.matrix(columns, rows), columns)
         relative = relation_errors(system, f) / system.allowances
-    return [i for i in everything if relative[i] < 1.0]
+    below = numerics.below(relative, 1.0)
+    return [i for i in everything if below[i]]
 
 
 def _row_weights(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
@@ -225,48 +342,93 @@ def _row_weights(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
                            for i in kept]) if kept else np.zeros(0)
 
 
-def _drop_until_kept(system: ClusterSystem, kept: list[int]) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """Solve on ``kept``; while a kept constraint fails, drop the worst (error over allowance)."""
+def _drop_until_kept(system: ClusterSystem, kept: list[int], numerics: _Numerics | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Solve on ``kept``; while a kept constraint fails, drop the worst (error over allowance).
+
+    Each step depends only on the constraints still kept, so a step too close to call with
+    fast numerics is decided with the exact ones and the next steps go on fast.
+    """
+    numerics = numerics or _Numerics(system, fast=False)
     kept = list(kept)
     while True:
-        columns = _columns(system, kept)
-        matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
-        f = _amounts(system, matrix, columns)
-        errors = relation_errors(system, f)
-        over = [(errors[i] / system.allowances[i], i) for i in kept if not errors[i] < system.allowances[i]]
-        if not over:
+        try:
+            f, matrix, worst = _drop_step(system, kept, numerics)
+        except _REFUSED:
+            if not numerics.fast:
+                raise
+            f, matrix, worst = _drop_step(system, kept, numerics.exact)
+        if worst is None:
             return f, matrix, kept
-        kept.remove(max(over)[1])
+        kept.remove(worst)
 
 
-def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray,
-             iterations: int = 12) -> tuple[np.ndarray, np.ndarray] | None:
+def _drop_step(system: ClusterSystem, kept: list[int], numerics: _Numerics):
+    """The solve on ``kept`` and the constraint to drop next (``None``: all are kept)."""
+    columns = _columns(system, kept)
+    matrix = numerics.matrix(columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
+    f = _amounts(system, matrix, columns)
+    errors = relation_errors(system, f)
+    held = numerics.below(errors[kept], system.allowances[kept]) if kept else np.zeros(0, dtype=bool)
+    over = [(errors[i] / system.allowances[i], i) for i, ok in zip(kept, held) if not ok]
+    return f, matrix, numerics.worst(over)[1] if over else None
+
+
+def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int = 12,
+             numerics: _Numerics | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The same constraints met by as few basis amounts as possible, or ``None``.
 
     The least-squares solution spreads a little of every basis op over the cluster (a
     stretcher's tilt shared by the legs as 1e-5 shears). Reweighted least squares
     (FOCUSS, with the prior ``sqrt(|g|) / c`` for costed displacements ``g``) drives the
     unneeded amounts to zero; those are left out and the rest solved again exactly.
+    ``f`` is the least-costed solution on ``kept`` (exact: fast numerics start from it
+    but decide again from the exact one when they cannot decide).
     """
+    found = _sparse_prior(system, kept, f, iterations, numerics or _Numerics(system, fast=False))
+    if found is None:
+        return None
+    columns = _columns(system, kept)
+    matrix = solver(system, columns, _row_weights(system, kept), prior=found)
+    return _amounts(system, matrix, columns), matrix
+
+
+def _sparse_prior(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int,
+                  numerics: _Numerics) -> np.ndarray | None:
+    """The prior of :func:`sparsify`'s solution (amounts left out are 0), or ``None``."""
+    try:
+        return _focuss(system, kept, f, iterations, numerics)
+    except _REFUSED:
+        if not numerics.fast:
+            raise
+    columns = _columns(system, kept)
+    if kept:  # the exact least-costed solution the exact decisions start from
+        f = _amounts(system, solver(system, columns, _row_weights(system, kept)), columns)
+    return _focuss(system, kept, f, iterations, numerics.exact)
+
+
+def _focuss(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int,
+            numerics: _Numerics) -> np.ndarray | None:
     columns = _columns(system, kept)
     rows = _row_weights(system, kept)
     base, c = _prior(system), _costed(system)
     g = np.abs(f * c).max(axis=0)
-    if not g.max() > 0:
+    if not numerics.positive(g.max(), columns):
         return None
     for _ in range(iterations):
-        matrix = solver(system, columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
+        matrix = numerics.matrix(columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
         g = np.abs(_amounts(system, matrix, columns) * c).max(axis=0)
-        if not g.max() > 0:
+        if not numerics.positive(g.max(), columns):
             return None
     # The amounts left small are dropped, boldly first; the rest is solved again exactly.
     for threshold in (1e-2, 1e-4, 1e-6):
+        numerics.below(g, threshold * g.max())  # (fast: refused near the threshold)
         prior = np.where(g > threshold * g.max(), base, 0.0)
-        matrix = solver(system, columns, rows, prior=prior)
+        matrix = numerics.matrix(columns, rows, prior=prior)
         f = _amounts(system, matrix, columns)
         errors = relation_errors(system, f)
-        if all(errors[i] < system.allowances[i] for i in kept):
-            return f, matrix
+        if not kept or numerics.below(errors[list(kept)], system.allowances[list(kept)]).all():
+            return prior
     return None
 
 
@@ -278,21 +440,80 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     (:func:`_sparse_breaks`). The one keeping more constraints (then less total error)
     wins; the dropped constraints are the cluster's breaking-edits. The amounts are then
     made sparse (:func:`sparsify`).
+
+    The choices are made with fast numerics (one BLAS thread), each again with the exact
+    ones when it is too close to call (:class:`_Numerics`); the amounts and the solver
+    returned are the exact solve of what was chosen.
     """
+    kept, prior = _plan(system, _Numerics(system, fast=True))
+    columns = _columns(system, kept)
+    if not kept:
+        matrix = np.zeros((len(system.weights), 0))
+    else:
+        matrix = solver(system, columns, _row_weights(system, kept), prior)
+    return _amounts(system, matrix, columns), matrix, kept
+
+
+def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.ndarray | None]:
+    """:func:`solve`'s choices: the constraints kept and the prior of the sparse solution
+    (``None``: the plain least-costed one)."""
     everything = list(range(len(system.constraints)))
     best = None
     for start in (everything, None):
         if start is None:  # only needed when not everything can be kept
-            start = _sparse_breaks(system)
-        f, matrix, kept = _drop_until_kept(system, start)
-        errors = relation_errors(system, f) / system.allowances
-        score = (-len(kept), float(np.sum(errors[errors >= 1.0])))
-        if best is None or score < best[0]:
-            best = (score, f, matrix, kept)
+            start = _sparse_breaks(system, numerics=numerics)
+        f, _, kept = _drop_until_kept(system, start, numerics)
+        if best is not None and kept == best[2]:
+            break  # the same solve: the same score, and the first one stays
+        try:
+            score = _score(system, f, kept, numerics)
+            better = best is None or _better(score, best[0], numerics)
+        except _REFUSED:
+            if not numerics.fast:
+                raise
+            f = _exact_amounts(system, kept)
+            score = _score(system, f, kept, numerics.exact)
+            better = best is None or _better(
+                score, _score(system, _exact_amounts(system, best[2]), best[2], numerics.exact), numerics.exact)
+        if better:
+            best = (score, f, kept)
         if len(kept) == len(everything):
             break
-    _, f, matrix, kept = best
-    sparse = sparsify(system, kept, f)
-    if sparse is not None:
-        f, matrix = sparse
-    return f, matrix, kept
+    _, f, kept = best
+    return kept, _sparse_prior(system, kept, f, 12, numerics)
+
+
+def _score(system: ClusterSystem, f: np.ndarray, kept: list[int], numerics: _Numerics) -> tuple[int, float]:
+    """Fewest constraints given up, then least total error of the broken ones."""
+    errors = relation_errors(system, f) / system.allowances
+    numerics.below(errors, 1.0)  # (fast: refused near 1)
+    return -len(kept), float(np.sum(errors[errors >= 1.0]))
+
+
+def _better(score: tuple[int, float], than: tuple[int, float], numerics: _Numerics) -> bool:
+    """``score < than``, the totals compared by :meth:`_Numerics.less`."""
+    if score[0] != than[0]:
+        return score[0] < than[0]
+    return numerics.less(score[1], than[1])
+
+
+def _exact_amounts(system: ClusterSystem, kept: list[int]) -> np.ndarray:
+    columns = _columns(system, kept)
+    matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
+    return _amounts(system, matrix, columns)
+
+
+_BLAS = None
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (no limit without ``threadpoolctl``)."""
+    global _BLAS
+    if _BLAS is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS = ThreadpoolController()
+        except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+            _BLAS = False
+    return _BLAS.limit(limits=1, user_api="blas") if _BLAS else contextlib.nullcontext()

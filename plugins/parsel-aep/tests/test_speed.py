@@ -191,3 +191,106 @@ def test_solver_reuses_a_system_it_has_solved():
     assert cluster.solver(fresh, columns, rows).tobytes() == first.tobytes()
     other = cluster.solver(system, columns, rows * 2)
     assert other is not first
+
+
+# -- the joint pass decides with fast numerics and solves exactly --------------------------
+
+def random_system(rng, parts: int = 4, constraints: int = 14, samples: int = 5, rank_loss: int = 0,
+                  conflict: float = 0.0) -> "cluster.ClusterSystem":
+    """A joint system of ``parts`` boxes (6 basis amounts each) and ``constraints`` relations
+    of 1-3 residual columns; ``rank_loss`` basis amounts repeat others (a rank-deficient
+    system); ``conflict`` adds residuals no amount can meet (relations to give up)."""
+    b = 6 * parts
+    sizes = rng.integers(1, 4, constraints)
+    slices, start = [], 0
+    for size in sizes:
+        slices.append(slice(start, start + int(size)))
+        start += int(size)
+    k = start
+    slopes = rng.normal(size=(b, k)) * (rng.random((b, k)) < 0.4)
+    for i in range(rank_loss):
+        slopes[b - 1 - i] = slopes[i] * 0.5
+    x = np.linspace(0, 1, samples)[:, None]
+    f_true = rng.normal(size=(1, b)) * 0.1
+    r0 = -(x * f_true) @ slopes + conflict * x * rng.normal(size=(1, k)) * (rng.random(k) < 0.2)
+    allowances = np.full(constraints, 1e-3)
+    return cluster.ClusterSystem(tuple(f"p{i}" for i in range(parts)), (), tuple(slice(6 * i, 6 * i + 6)
+                                 for i in range(parts)), tuple(range(constraints)), tuple(slices), r0, slopes,
+                                 rng.uniform(0.01, 1, b), np.tile([2.0, 2.0, 2.0, 1.0, 1.0, 1.0], parts),
+                                 allowances)
+
+
+def exact_solve(system):
+    """solve() as first written: every decision on the exact solver."""
+    everything = list(range(len(system.constraints)))
+    best = None
+    for start in (everything, None):
+        if start is None:
+            start = cluster._sparse_breaks(system)
+        f, matrix, kept = cluster._drop_until_kept(system, start)
+        errors = cluster.relation_errors(system, f) / system.allowances
+        score = (-len(kept), float(np.sum(errors[errors >= 1.0])))
+        if best is None or score < best[0]:
+            best = (score, f, matrix, kept)
+        if len(kept) == len(everything):
+            break
+    _, f, matrix, kept = best
+    sparse = cluster.sparsify(system, kept, f)
+    if sparse is not None:
+        f, matrix = sparse
+    return f, matrix, kept
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_solve_with_fast_decisions_is_bitwise_the_exact_solve(seed):
+    rng = np.random.default_rng(seed)
+    system = random_system(rng, rank_loss=seed % 3, conflict=[0.0, 0.05, 1.0][seed % 3])
+    f, matrix, kept = cluster.solve(system)
+    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
+                                                                  "slices", "r0", "slopes", "weights", "costs",
+                                                                  "allowances")))
+    f0, matrix0, kept0 = exact_solve(fresh)
+    assert kept == kept0
+    assert matrix.tobytes() == matrix0.tobytes() and f.tobytes() == f0.tobytes()
+
+
+def test_fast_decisions_too_close_to_call_are_refused():
+    system = random_system(np.random.default_rng(3))
+    fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
+    values, limits = np.array([0.5, 1.0 - 1e-9]), np.array([1.0, 1.0])
+    assert list(exact.below(values, limits)) == [True, True]
+    with pytest.raises(cluster._Borderline):
+        fast.below(values, limits)
+    with pytest.raises(cluster._Borderline):
+        fast.below(np.array([np.nan]), 1.0)
+    assert fast.worst([(3.0, 0), (2.0, 1)]) == (3.0, 0)
+    with pytest.raises(cluster._Borderline):
+        fast.worst([(3.0, 0), (3.0 * (1 - 1e-9), 1)])
+    assert exact.worst([(3.0, 0), (3.0, 1)]) == (3.0, 1)
+    with pytest.raises(cluster._Borderline):
+        fast.less(1.0, 1.0 + 1e-12)
+
+
+@pytest.mark.parametrize("shape", [(40, 12), (12, 40), (30, 30), (1, 5), (5, 1)])
+@pytest.mark.parametrize("rank", [None, 1, 3])
+def test_guarded_pinv_agrees_with_numpy_pinv(shape, rank):
+    rng = np.random.default_rng(sum(shape) * 10 + (rank or 0))
+    a = rng.normal(size=shape)
+    if rank is not None and rank < min(shape):  # rank-deficient: the minimum-norm solution
+        a = rng.normal(size=(shape[0], rank)) @ rng.normal(size=(rank, shape[1]))
+    got = cluster._guarded_pinv(a, 1e-9, 1e-4)
+    want = np.linalg.pinv(a, rcond=1e-9)
+    assert np.allclose(got, want, rtol=1e-9, atol=1e-11 * np.abs(want).max())
+    assert cluster._guarded_pinv(np.zeros(shape), 1e-9, 1e-4).tobytes() == np.zeros(shape[::-1]).tobytes()
+    assert cluster._guarded_pinv(np.zeros((0, 3)), 1e-9, 1e-4).shape == (3, 0)
+
+
+def test_guarded_pinv_refuses_a_singular_value_at_the_cutoff():
+    rng = np.random.default_rng(1)
+    u, _ = np.linalg.qr(rng.normal(size=(8, 4)))
+    v, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    a = u @ np.diag([1.0, 0.5, 1e-3, 1e-9 * (1 + 1e-6)]) @ v.T
+    with pytest.raises(cluster._Borderline):
+        cluster._guarded_pinv(a, 1e-9, 1e-4)
+    a = u @ np.diag([1.0, 0.5, 1e-3, 1e-7]) @ v.T
+    assert np.allclose(cluster._guarded_pinv(a, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9), rtol=1e-6)

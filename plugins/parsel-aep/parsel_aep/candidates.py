@@ -15,13 +15,15 @@ so for a box ~200 candidates remain instead of thousands.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from parsel_core.hexahedron import EDGE_NAMES, FACE_NAMES, Hexahedron, feature_corners
-from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate
+from parsel_core.hexahedron import EDGE_NAMES, FACE_NAMES, Hexahedron, canonical_feature_name, feature_corners
+from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate, as_vector
 
 #: Which op families a type hint allows (reference section 4, step 8).
 HINT_TYPES = {
@@ -95,7 +97,7 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
     for dv, dk in zip(dir_vecs, dir_keys):
         key = ("translate", dk)
         if key not in out:
-            out[key] = Translate(part, "f", dir=dv)
+            out[key] = _make(Translate, part, dir=dv)
     for n, nv, nk in zip(dirs, dir_vecs, dir_keys):
         heights = []
         for p, pv in zip(points, point_vecs):
@@ -104,25 +106,25 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
             heights.append(height)
             key = ("scale_1d", nk, height)
             if key not in out:
-                out[key] = Scale1D(part, "f", origin=pv, dir=nv)
+                out[key] = _make(Scale1D, part, origin=pv, dir=nv)
             plane = _key(p - along * n)
             key = ("scale_2d", nk, plane)
             if key not in out:
-                out[key] = Scale2D(part, "f", origin=pv, normal=nv)
+                out[key] = _make(Scale2D, part, origin=pv, normal=nv)
             key = ("rotate", nk, plane)
             if key not in out:
-                out[key] = Rotate(part, "f", origin=pv, axis=nv)
+                out[key] = _make(Rotate, part, origin=pv, axis=nv)
         for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             if abs(float(n @ d)) > 1e-6:
                 continue
             for pv, height in zip(point_vecs, heights):
                 key = ("shear", nk, dk, height)
                 if key not in out:
-                    out[key] = Shear(part, "f", origin=pv, normal=nv, dir=dv)
+                    out[key] = _make(Shear, part, origin=pv, normal=nv, dir=dv)
     for p, pv in zip(points, point_vecs):
         key = ("scale_3d", _key(p))
         if key not in out:
-            out[key] = Scale3D(part, "f", origin=pv)
+            out[key] = _make(Scale3D, part, origin=pv)
     corners = hexahedron.corners
     for face in FACE_NAMES:
         face_points = corners[list(feature_corners(face))]
@@ -132,7 +134,7 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
         for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             key = ("face_translate", face, dk)
             if key not in out:
-                out[key] = Translate(part, "f", feature=face, dir=dv)
+                out[key] = _make(Translate, part, feature=face, dir=dv)
             if abs(float(d @ normal)) > 0.9:
                 continue  # scaling a face along its normal only moves it: a face translation
             if face_vecs is None:
@@ -140,12 +142,12 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
             for p, pv in zip(face_points, face_vecs):
                 key = ("face_scale", face, dk, round(float(p @ d), 7))
                 if key not in out:
-                    out[key] = Scale1D(part, "f", feature=face, origin=pv, dir=dv)
+                    out[key] = _make(Scale1D, part, feature=face, origin=pv, dir=dv)
     for edge in EDGE_NAMES:
         for dv, dk in zip(dir_vecs, dir_keys):
             key = ("edge_translate", edge, dk)
             if key not in out:
-                out[key] = Translate(part, "f", feature=edge, dir=dv)
+                out[key] = _make(Translate, part, feature=edge, dir=dv)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
@@ -208,6 +210,70 @@ def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:
     if made is None:
         if len(_MADE) >= _MADE_SIZE:
             _MADE.clear()
-        op = cls(part, "f", **params)
+        op = _make(cls, part, **params)
         made = _MADE[made_key] = ((op.name, tuple(sorted(op.params().items()))), op)
     out.setdefault(*made)
+
+
+#: Normalised vector fields by (unit, value): what ``EditOp.__post_init__`` makes of them.
+_VECTORS: dict[tuple, tuple[float, float, float]] = {}
+#: Per op class: its own fields (name, default), and whether :func:`_make` builds it
+#: exactly as the constructor does (checked on the first op of each class).
+_LAYOUT: dict[type, tuple[tuple[tuple[str, object], ...], bool]] = {}
+
+
+def _make(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
+    """``cls(part, "f", feature=feature, **params)`` for the valid parameters candidates use,
+    without validating them again (a few hundred ops per part, every one a dataclass whose
+    ``__post_init__`` parses the amount and normalises each vector). The fields hold the
+    values the constructor would store: vectors normalised as ``as_vector`` does (cached),
+    the feature name made canonical. The first op of each class is also built by its
+    constructor and compared; a class where the two differ is always built by it."""
+    layout = _LAYOUT.get(cls)
+    if layout is None:
+        own = tuple((f.name, f.default) for f in dataclasses.fields(cls)
+                    if f.name not in ("operand", "amount", "feature"))
+        _LAYOUT[cls] = (own, True)
+        try:
+            built = cls(part, "f", feature=feature, **params)
+            same = _fast_make(cls, own, part, feature, params)
+            exact = type(same) is cls and same == built and vars(same) == vars(built)
+        except Exception:  # anything unusual: the constructor decides
+            exact = False
+        layout = _LAYOUT[cls] = (own, exact)
+    if not layout[1] or len(_VECTORS) > 100_000:
+        return cls(part, "f", feature=feature, **params)
+    return _fast_make(cls, layout[0], part, feature, params)
+
+
+def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:
+    op = object.__new__(cls)
+    put = object.__setattr__
+    put(op, "operand", part)
+    put(op, "amount", "f")
+    put(op, "feature", None if feature is None else _canonical(feature))
+    for name, default in own:
+        value = params.get(name, default)
+        if value is dataclasses.MISSING:
+            return cls(part, "f", feature=feature, **params)
+        unit = name in cls.unit_fields
+        if unit or name in cls.point_fields:
+            # (-0.0 == 0.0, but as_vector keeps the sign)
+            key = (unit, value, tuple(math.copysign(1.0, v) for v in value) if 0.0 in value else None)
+            vector = _VECTORS.get(key)
+            if vector is None:
+                vector = _VECTORS[key] = as_vector(value, f"{cls.name}.{name}", unit=unit)
+            value = vector
+        put(op, name, value)
+    return op
+
+
+_CANONICAL: dict[str, str] = {}
+
+
+def _canonical(feature: str) -> str:
+    name = _CANONICAL.get(feature)
+    if name is None:
+        feature_corners(feature)  # (raises for a name that is not a feature)
+        name = _CANONICAL[feature] = canonical_feature_name(feature)
+    return name

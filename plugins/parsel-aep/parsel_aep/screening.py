@@ -55,6 +55,17 @@ def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray])
     return np.concatenate([np.asarray(r.residual(corners), dtype=float) for r in relations], axis=-1)
 
 
+def _residuals_and_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]
+                          ) -> tuple[np.ndarray, list[slice]]:
+    """:func:`_residuals` and :func:`residual_slices` from one evaluation."""
+    blocks = [np.asarray(r.residual(corners), dtype=float) for r in relations]
+    out, start = [], 0
+    for block in blocks:
+        out.append(slice(start, start + block.shape[-1]))
+        start += block.shape[-1]
+    return np.concatenate(blocks, axis=-1), out
+
+
 def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> list[slice]:
     """Each relation's columns in the concatenated residual (corners of any batch shape)."""
     out, start = [], 0
@@ -66,21 +77,43 @@ def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndar
 
 
 def _apply_all(ops: Sequence[EditOp], rest: np.ndarray, amount: float) -> np.ndarray:
-    """Every op applied to the rest corners (8, 3) at one amount: (N, 8, 3).
+    """Every op applied to the rest corners (8, 3) at one amount: (N, 8, 3)."""
+    return _Batch(ops).apply(rest, amount)
 
-    The ops of one class on one feature are applied together (:func:`_apply_batch`); any
-    other op (an :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``.
-    """
-    out = np.empty((len(ops), 8, 3))
-    groups: dict[tuple, list[int]] = {}
-    for i, op in enumerate(ops):
-        if type(op) in _BATCHED:
-            groups.setdefault((type(op), op.feature), []).append(i)
-        else:
-            out[i] = op.apply(rest, amount, NUMPY_MATH)
-    for (kind, feature), index in groups.items():
-        out[index] = _apply_batch(kind, feature, [ops[i] for i in index], rest, amount)
-    return out
+
+class _Batch:
+    """Ops applied together: those of one class on one feature at once (:func:`_apply_batch`,
+    their vector fields gathered once for every amount and part), any other op (an
+    :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``."""
+
+    def __init__(self, ops: Sequence[EditOp]) -> None:
+        self.ops = list(ops)
+        groups: dict[tuple, list[int]] = {}
+        self.single: list[int] = []
+        for i, op in enumerate(self.ops):
+            if type(op) in _BATCHED:
+                groups.setdefault((type(op), op.feature), []).append(i)
+            else:
+                self.single.append(i)
+        self.groups = [(kind, feature, index, _fields(kind, [self.ops[i] for i in index]))
+                       for (kind, feature), index in groups.items()]
+
+    def apply(self, rest: np.ndarray, amount: float) -> np.ndarray:
+        out = np.empty((len(self.ops), 8, 3))
+        for i in self.single:
+            out[i] = self.ops[i].apply(rest, amount, NUMPY_MATH)
+        for kind, feature, index, fields in self.groups:
+            out[index] = _apply_batch(kind, feature, fields, rest, amount)
+        return out
+
+
+#: The vector fields each batched class reads, in :func:`_apply_batch`'s order.
+_FIELDS = {"Translate": ("dir",), "Rotate": ("origin", "axis"), "Scale1D": ("origin", "dir"),
+           "Scale2D": ("origin", "normal"), "Scale3D": ("origin",), "Shear": ("origin", "normal", "dir")}
+
+
+def _fields(kind: type, ops: Sequence[EditOp]) -> tuple[np.ndarray, ...]:
+    return tuple(_column(ops, name) for name in _FIELDS[kind.__name__])
 
 
 def _column(ops: Sequence[EditOp], name: str) -> np.ndarray:
@@ -100,40 +133,42 @@ def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.concatenate([b * z - c * y, c * x - a * z, a * y - b * x], axis=-1)
 
 
-def _apply_batch(kind: type, feature: str | None, ops: Sequence[EditOp], rest: np.ndarray,
+def _apply_batch(kind: type, feature: str | None, fields: tuple[np.ndarray, ...], rest: np.ndarray,
                  amount: float) -> np.ndarray:
     """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class
-    on one feature, with the operations of each op's ``transform`` in the same order, so the
-    result is the same to the last bit."""
+    on one feature, given their vector fields (:func:`_fields`, each (G, 1, 3)), with the
+    operations of each op's ``transform`` in the same order, so the result is the same to
+    the last bit."""
     index = None if feature is None else list(_corner_indices(feature))
     points = rest if index is None else rest[index]
     if kind is Translate:
-        moved = points + _column(ops, "dir") * amount
+        (d,) = fields
+        moved = points + d * amount
     elif kind is Rotate:
-        o, axis = _column(ops, "origin"), _column(ops, "axis")
+        o, axis = fields
         centred = points - o
         cos, sin = NUMPY_MATH.cos(amount), NUMPY_MATH.sin(amount)
         rotated = centred * cos + _cross(axis, centred) * sin + _dot(centred, axis) * axis * (1 - cos)
         moved = o + rotated
     elif kind is Scale1D:
-        o, d = _column(ops, "origin"), _column(ops, "dir")
+        o, d = fields
         centred = points - o
         moved = o + centred + _dot(centred, d) * d * amount
     elif kind is Scale2D:
-        o, n = _column(ops, "origin"), _column(ops, "normal")
+        o, n = fields
         centred = points - o
         along = _dot(centred, n) * n
         moved = o + (centred - along) * (1 + amount) + along
     elif kind is Scale3D:
-        o = _column(ops, "origin")
+        (o,) = fields
         moved = o + (points - o) * (1 + amount)
     else:  # Shear
-        o, n, d = _column(ops, "origin"), _column(ops, "normal"), _column(ops, "dir")
+        o, n, d = fields
         centred = points - o
         moved = o + centred + _dot(centred, n) * d * amount
     if index is None:
         return moved
-    out = np.array(np.broadcast_to(rest, (len(ops), 8, 3)))
+    out = np.array(np.broadcast_to(rest, (len(fields[0]), 8, 3)))
     out[:, index, :] = moved
     return out
 
@@ -148,7 +183,18 @@ def _corner_indices(feature: str) -> tuple[int, ...]:
 
 def relation_max_errors(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
     """Max |residual| per relation: (..., R) from (..., S, K)."""
+    starts = [s.start for s in slices]
+    if (slices and starts[0] == 0 and slices[-1].stop == residual.shape[-1] and residual.shape[-2] > 0
+            and all(a.stop == b.start and a.stop > a.start for a, b in zip(slices, slices[1:]))
+            and slices[-1].stop > slices[-1].start):
+        # consecutive, non-empty slices: the largest over the samples, then over each slice
+        return np.maximum.reduceat(np.abs(residual).max(axis=-2), starts, axis=-1)
     return np.stack([np.abs(residual[..., s]).max(axis=(-1, -2)) for s in slices], axis=-1)
+
+
+def _max_abs_per_slice(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
+    """:func:`relation_max_errors` of a scratch array (overwritten by its absolute values)."""
+    return relation_max_errors(np.abs(residual, out=residual), slices)
 
 
 @dataclass
@@ -175,11 +221,12 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     r0 = np.nan_to_num(_residuals(constraints, {**others, **rest_view}), nan=0.0, posinf=0.0, neginf=0.0)
     first = {pid: c[:1][None] for pid, c in others.items()}                     # (1, 1, 8, 3)
     rest_one = {p: c[None, None] for p, c in moving.items()}
-    base = _residuals(constraints, {**first, **rest_one})[0, 0]                  # (K,)
-    slices = residual_slices(constraints, {**first, **rest_one})
+    base, slices = _residuals_and_slices(constraints, {**first, **rest_one})
+    base = base[0, 0]                                                            # (K,)
 
     def residual_at(ops, amount):
-        moved = {pid: _apply_all(ops, c, amount)[:, None] for pid, c in moving.items()}
+        batch = ops if isinstance(ops, _Batch) else _Batch(ops)
+        moved = {pid: batch.apply(c, amount)[:, None] for pid, c in moving.items()}
         return _residuals(constraints, {**first, **moved})[:, 0]               # (N, K)
 
     affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, (Rotate, Compound))]
@@ -187,7 +234,7 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     k = r0.shape[-1]
     slope = residual_at([op for _, op in affine], 1.0) - base if affine else np.zeros((0, k))
     if rotations:
-        ops = [op for _, op in rotations]
+        ops = _Batch([op for _, op in rotations])
         at0, at90, at180 = (residual_at(ops, angle) for angle in (0.0, np.pi / 2, np.pi))
         offset = (at0 - at180) / 2
         matrix = np.stack([offset, at90 - (at0 + at180) / 2], axis=-1)
@@ -280,8 +327,9 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
     for columns in column_sets:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
-            residual = system.r0[None] + f[:, :, None] * system.slope[:, None, :]
-            errors = relation_max_errors(residual, system.slices)
+            residual = f[:, :, None] * system.slope[:, None, :]
+            residual += system.r0                                                      # r0 + f a, in place
+            errors = _max_abs_per_slice(residual, system.slices)
             broken = _broken_ids_all(system, errors, tolerance)
             for n in np.flatnonzero(usable):
                 index, op = system.affine[n]
@@ -289,9 +337,10 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
-            residual = (np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
-                        + system.r0[None] - system.offset[:, None, :])
-            errors = relation_max_errors(residual, system.slices)
+            residual = np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
+            residual += system.r0                                                      # (A c + B s + r0) - A
+            residual -= system.offset[:, None, :]
+            errors = _max_abs_per_slice(residual, system.slices)
             broken = _broken_ids_all(system, errors, tolerance)
             for n in np.flatnonzero(usable):
                 index, op = system.rotations[n]

@@ -294,3 +294,24 @@ def test_guarded_pinv_refuses_a_singular_value_at_the_cutoff():
         cluster._guarded_pinv(a, 1e-9, 1e-4)
     a = u @ np.diag([1.0, 0.5, 1e-3, 1e-7]) @ v.T
     assert np.allclose(cluster._guarded_pinv(a, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9), rtol=1e-6)
+
+
+def test_candidates_built_without_revalidation_equal_the_constructed_ones():
+    from parsel_core.ops import EditOp
+
+    rng = np.random.default_rng(7)
+    box = skewed_box(rng)
+    for op in candidates.own_candidates("leg", box):
+        params = {k: v for k, v in op.params().items()}
+        built = type(op)("leg", "f", feature=op.feature, **params)
+        assert isinstance(op, EditOp) and type(op) is type(built)
+        assert op == built and vars(op) == vars(built)
+    # a sign of zero is kept as the constructor keeps it
+    made = candidates._make(Translate, "p", dir=(-0.0, 1.0, 0.0))
+    assert repr(made.dir) == repr(Translate("p", "f", dir=(-0.0, 1.0, 0.0)).dir)
+    made = candidates._make(Translate, "p", dir=(0.0, 1.0, 0.0))
+    assert repr(made.dir) == repr(Translate("p", "f", dir=(0.0, 1.0, 0.0)).dir)
+    # a feature name is made canonical; an unknown one is refused as by the constructor
+    assert candidates._make(Translate, "p", feature="v-u+", dir=(1.0, 0.0, 0.0)).feature == "u+v-"
+    with pytest.raises(ValueError):
+        candidates._make(Translate, "p", feature="q+", dir=(1.0, 0.0, 0.0))

@@ -197,22 +197,17 @@ def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Seque
     return ops
 
 
-#: Ops built from the same class, operand and parameters, with their merge key (bounded).
-_MADE: dict[tuple, tuple[tuple, EditOp]] = {}
-_MADE_SIZE = 200_000
-
-
 def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:
     """``out.setdefault(key, cls(part, "f", **params))`` keyed as :func:`neighbour_candidates`
-    merges (the op's normalised parameters), the op built once per process and shared."""
-    made_key = (cls, part, *params.items())
-    made = _MADE.get(made_key)
-    if made is None:
-        if len(_MADE) >= _MADE_SIZE:
-            _MADE.clear()
-        op = _make(cls, part, **params)
-        made = _MADE[made_key] = ((op.name, tuple(sorted(op.params().items()))), op)
-    out.setdefault(*made)
+    merges (the op's name and normalised parameters), the op built only for a new key."""
+    fields = _normalised(cls, part, params)
+    if fields is None:  # a class :func:`_make` leaves to its constructor
+        op = cls(part, "f", **params)
+        out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+        return
+    key = (cls.name, tuple(sorted(fields)))
+    if key not in out:
+        out[key] = _make(cls, part, **params)
 
 
 #: Normalised vector fields by (unit, value): what ``EditOp.__post_init__`` makes of them.
@@ -241,9 +236,42 @@ def _make(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
         except Exception:  # anything unusual: the constructor decides
             exact = False
         layout = _LAYOUT[cls] = (own, exact)
-    if not layout[1] or len(_VECTORS) > 100_000:
+    if not layout[1]:
         return cls(part, "f", feature=feature, **params)
     return _fast_make(cls, layout[0], part, feature, params)
+
+
+def _normalised(cls: type, part: str, params: dict) -> list[tuple[str, object]] | None:
+    """``list(cls(part, "f", **params).params().items())`` without building the op; ``None``
+    for a class :func:`_make` leaves to its constructor."""
+    layout = _LAYOUT.get(cls)
+    if layout is None:
+        _make(cls, part, **params)  # (checks the class)
+        layout = _LAYOUT[cls]
+    if not layout[1]:
+        return None
+    out = []
+    for name, default in layout[0]:
+        value = params.get(name, default)
+        if value is dataclasses.MISSING:
+            return None
+        out.append((name, _vector(cls, name, value)))
+    return out
+
+
+def _vector(cls: type, name: str, value):
+    """The value ``EditOp.__post_init__`` stores for field ``name`` (vectors normalised)."""
+    unit = name in cls.unit_fields
+    if not (unit or name in cls.point_fields):
+        return value
+    # (-0.0 == 0.0, but as_vector keeps the sign)
+    key = (unit, value, tuple(math.copysign(1.0, v) for v in value) if 0.0 in value else None)
+    vector = _VECTORS.get(key)
+    if vector is None:
+        if len(_VECTORS) >= 100_000:
+            _VECTORS.clear()
+        vector = _VECTORS[key] = as_vector(value, f"{cls.name}.{name}", unit=unit)
+    return vector
 
 
 def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:
@@ -256,15 +284,7 @@ def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> 
         value = params.get(name, default)
         if value is dataclasses.MISSING:
             return cls(part, "f", feature=feature, **params)
-        unit = name in cls.unit_fields
-        if unit or name in cls.point_fields:
-            # (-0.0 == 0.0, but as_vector keeps the sign)
-            key = (unit, value, tuple(math.copysign(1.0, v) for v in value) if 0.0 in value else None)
-            vector = _VECTORS.get(key)
-            if vector is None:
-                vector = _VECTORS[key] = as_vector(value, f"{cls.name}.{name}", unit=unit)
-            value = vector
-        put(op, name, value)
+        put(op, name, _vector(cls, name, value))
     return op
 
 

@@ -230,24 +230,29 @@ class _Numerics:
         self.solved: dict = {}
         self.exact = _Numerics(system, fast=False) if fast else self
 
-    def matrix(self, columns: np.ndarray, rows: np.ndarray | None = None,
-               prior: np.ndarray | None = None) -> np.ndarray:
-        """:func:`solver`, or its fast counterpart (one BLAS thread, refused near the cutoff)."""
+    def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
+                prior: np.ndarray | None = None) -> np.ndarray:
+        """The amounts (S, B) of :func:`solver`'s matrix on ``r0``; fast: solved directly by
+        least squares on one BLAS thread (LAPACK gelsd, the same minimum-norm solution with
+        the same cutoff), refused near the cutoff, amounts with a zero prior left out."""
         if not self.fast:
-            return solver(self.system, columns, rows, prior)
+            return _amounts(self.system, solver(self.system, columns, rows, prior), columns)
         p = _prior(self.system) if prior is None else prior
         key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
         out = self.solved.get(key)
         if out is None:
-            a = self.system.slopes[:, columns].T * p
+            live = np.flatnonzero(p)
+            a = self.system.slopes[np.ix_(live, columns)].T * p[live]                   # (K', B')
+            b = self.system.r0[:, columns].T                                           # (K', S)
             if rows is not None:
                 a = a * rows[:, None]
+                b = rows[:, None] * b
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             with one_blas_thread():
-                out = _guarded_pinv(a / norm, 1e-9, self.CUTOFF_MARGIN) / norm * p[:, None]
-            if rows is not None:
-                out = out * rows[None, :]
-            self.solved[key] = out
+                y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+            out = np.zeros((len(p), b.shape[1]))
+            out[live] = p[live, None] * y / norm
+            out = self.solved[key] = -out.T
         return out
 
     def below(self, values: np.ndarray, limits) -> np.ndarray:
@@ -286,22 +291,21 @@ class _Numerics:
         return bool(value > 0)
 
 
-def _guarded_pinv(a: np.ndarray, rcond: float, margin: float) -> np.ndarray:
-    """``np.linalg.pinv(a, rcond)``, refused (:class:`_Borderline`) when a singular value is
-    within ``margin`` (relative) of the cutoff: which directions it keeps is then rounding."""
+def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float) -> np.ndarray:
+    """``np.linalg.pinv(a, rcond) @ b`` by ``np.linalg.lstsq`` (singular values up to
+    ``rcond`` times the largest count as zero in both), refused (:class:`_Borderline`) when
+    a singular value is within ``margin`` (relative) of that cutoff."""
     if a.size == 0:
-        return np.zeros(a.shape[::-1])
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
+        return np.zeros((a.shape[1], b.shape[1]))
+    y, _, _, s = np.linalg.lstsq(a, b, rcond=rcond)
     cutoff = rcond * s.max(initial=0.0)
     if not cutoff > 0:  # a zero matrix (or not finite: refused)
         if np.all(s == 0):
-            return np.zeros(a.shape[::-1])
+            return np.zeros((a.shape[1], b.shape[1]))
         raise _Borderline
-    if np.any(np.abs(s - cutoff) <= margin * cutoff):
+    if np.any(np.abs(s - cutoff) <= margin * cutoff) or not np.all(np.isfinite(y)):
         raise _Borderline
-    large = s > cutoff
-    inverse = np.divide(1.0, s, out=np.zeros_like(s), where=large)
-    return vt.T @ (inverse[:, None] * u.T)
+    return y
 
 
 def _sparse_breaks(system: ClusterSystem, iterations: int = 12, numerics: _Numerics | None = None) -> list[int]:
@@ -328,7 +332,7 @@ def _reweighted(system: ClusterSystem, iterations: int, numerics: _Numerics) -> 
     for _ in range(iterations):
         weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
         rows = np.repeat(weight / np.sqrt(sizes), sizes)
-        f = _amounts(system, numerics.matrix(columns, rows), columns)
+        f = numerics.amounts(columns, rows)
         relative = relation_errors(system, f) / system.allowances
     below = numerics.below(relative, 1.0)
     return [i for i in everything if below[i]]
@@ -366,8 +370,14 @@ def _drop_until_kept(system: ClusterSystem, kept: list[int], numerics: _Numerics
 def _drop_step(system: ClusterSystem, kept: list[int], numerics: _Numerics):
     """The solve on ``kept`` and the constraint to drop next (``None``: all are kept)."""
     columns = _columns(system, kept)
-    matrix = numerics.matrix(columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
-    f = _amounts(system, matrix, columns)
+    if not kept:
+        matrix = np.zeros((len(system.weights), 0))
+        f = _amounts(system, matrix, columns)
+    elif numerics.fast:  # (only the amounts: the matrix is solved exactly once chosen)
+        matrix, f = None, numerics.amounts(columns, _row_weights(system, kept))
+    else:
+        matrix = solver(system, columns, _row_weights(system, kept))
+        f = _amounts(system, matrix, columns)
     errors = relation_errors(system, f)
     held = numerics.below(errors[kept], system.allowances[kept]) if kept else np.zeros(0, dtype=bool)
     over = [(errors[i] / system.allowances[i], i) for i, ok in zip(kept, held) if not ok]
@@ -416,16 +426,15 @@ def _focuss(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iteration
     if not numerics.positive(g.max(), columns):
         return None
     for _ in range(iterations):
-        matrix = numerics.matrix(columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
-        g = np.abs(_amounts(system, matrix, columns) * c).max(axis=0)
+        f = numerics.amounts(columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
+        g = np.abs(f * c).max(axis=0)
         if not numerics.positive(g.max(), columns):
             return None
     # The amounts left small are dropped, boldly first; the rest is solved again exactly.
     for threshold in (1e-2, 1e-4, 1e-6):
         numerics.below(g, threshold * g.max())  # (fast: refused near the threshold)
         prior = np.where(g > threshold * g.max(), base, 0.0)
-        matrix = numerics.matrix(columns, rows, prior=prior)
-        f = _amounts(system, matrix, columns)
+        f = numerics.amounts(columns, rows, prior=prior)
         errors = relation_errors(system, f)
         if not kept or numerics.below(errors[list(kept)], system.allowances[list(kept)]).all():
             return prior

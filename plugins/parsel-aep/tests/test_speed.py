@@ -273,45 +273,39 @@ def test_fast_decisions_too_close_to_call_are_refused():
 
 @pytest.mark.parametrize("shape", [(40, 12), (12, 40), (30, 30), (1, 5), (5, 1)])
 @pytest.mark.parametrize("rank", [None, 1, 3])
-def test_guarded_pinv_agrees_with_numpy_pinv(shape, rank):
+def test_guarded_lstsq_agrees_with_numpy_pinv(shape, rank):
     rng = np.random.default_rng(sum(shape) * 10 + (rank or 0))
     a = rng.normal(size=shape)
     if rank is not None and rank < min(shape):  # rank-deficient: the minimum-norm solution
         a = rng.normal(size=(shape[0], rank)) @ rng.normal(size=(rank, shape[1]))
-    got = cluster._guarded_pinv(a, 1e-9, 1e-4)
-    want = np.linalg.pinv(a, rcond=1e-9)
+    b = rng.normal(size=(shape[0], 7))
+    got = cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
+    want = np.linalg.pinv(a, rcond=1e-9) @ b
     assert np.allclose(got, want, rtol=1e-9, atol=1e-11 * np.abs(want).max())
-    assert cluster._guarded_pinv(np.zeros(shape), 1e-9, 1e-4).tobytes() == np.zeros(shape[::-1]).tobytes()
-    assert cluster._guarded_pinv(np.zeros((0, 3)), 1e-9, 1e-4).shape == (3, 0)
+    zero = cluster._guarded_lstsq(np.zeros(shape), b, 1e-9, 1e-4)
+    assert zero.shape == (shape[1], 7) and not zero.any()
+    assert cluster._guarded_lstsq(np.zeros((0, 3)), np.zeros((0, 7)), 1e-9, 1e-4).shape == (3, 7)
 
 
-def test_guarded_pinv_refuses_a_singular_value_at_the_cutoff():
+def test_guarded_lstsq_refuses_a_singular_value_at_the_cutoff():
     rng = np.random.default_rng(1)
     u, _ = np.linalg.qr(rng.normal(size=(8, 4)))
     v, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    b = rng.normal(size=(8, 3))
     a = u @ np.diag([1.0, 0.5, 1e-3, 1e-9 * (1 + 1e-6)]) @ v.T
     with pytest.raises(cluster._Borderline):
-        cluster._guarded_pinv(a, 1e-9, 1e-4)
+        cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
     a = u @ np.diag([1.0, 0.5, 1e-3, 1e-7]) @ v.T
-    assert np.allclose(cluster._guarded_pinv(a, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9), rtol=1e-6)
+    assert np.allclose(cluster._guarded_lstsq(a, b, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9) @ b, rtol=1e-6)
 
 
-def test_candidates_built_without_revalidation_equal_the_constructed_ones():
-    from parsel_core.ops import EditOp
-
-    rng = np.random.default_rng(7)
-    box = skewed_box(rng)
-    for op in candidates.own_candidates("leg", box):
-        params = {k: v for k, v in op.params().items()}
-        built = type(op)("leg", "f", feature=op.feature, **params)
-        assert isinstance(op, EditOp) and type(op) is type(built)
-        assert op == built and vars(op) == vars(built)
-    # a sign of zero is kept as the constructor keeps it
-    made = candidates._make(Translate, "p", dir=(-0.0, 1.0, 0.0))
-    assert repr(made.dir) == repr(Translate("p", "f", dir=(-0.0, 1.0, 0.0)).dir)
-    made = candidates._make(Translate, "p", dir=(0.0, 1.0, 0.0))
-    assert repr(made.dir) == repr(Translate("p", "f", dir=(0.0, 1.0, 0.0)).dir)
-    # a feature name is made canonical; an unknown one is refused as by the constructor
-    assert candidates._make(Translate, "p", feature="v-u+", dir=(1.0, 0.0, 0.0)).feature == "u+v-"
-    with pytest.raises(ValueError):
-        candidates._make(Translate, "p", feature="q+", dir=(1.0, 0.0, 0.0))
+def test_fast_amounts_agree_with_the_exact_solver():
+    rng = np.random.default_rng(4)
+    system = random_system(rng, rank_loss=2)
+    fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
+    columns = np.arange(system.r0.shape[1])
+    rows = rng.uniform(0.5, 2.0, len(columns))
+    prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)  # some amounts left out
+    for args in ((columns,), (columns, rows), (columns, rows, prior), (columns[:9], rows[:9], prior)):
+        got, want = fast.amounts(*args), exact.amounts(*args)
+        assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())

@@ -181,20 +181,41 @@ def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Seque
             line = centre - np.asarray(origin)
             if np.linalg.norm(line) > 1e-9:
                 add(Translate(part, "f", dir=_vec(line / np.linalg.norm(line))))
-    for neighbour in neighbour_hexahedra:
-        points = [_vec(p) for p in neighbour.feature_points]
-        for n in directions(neighbour):
-            n = _vec(n)
-            for p in points:
-                _add_made(out, Rotate, part, origin=p, axis=n)
-                _add_made(out, Scale1D, part, origin=p, dir=n)
-            _add_made(out, Translate, part, dir=n)
-        for p in points:
-            _add_made(out, Scale3D, part, origin=p)
+    for key, op in _about_neighbours(part, neighbour_hexahedra).items():
+        out.setdefault(key, op)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
     return ops
+
+
+#: _about_neighbours' merged ops by (part, the neighbours' corners); bounded.
+_ABOUT: dict[tuple, dict[tuple, EditOp]] = {}
+_ABOUT_SIZE = 256
+
+
+def _about_neighbours(part: str, neighbour_hexahedra: Sequence[Hexahedron]) -> dict[tuple, EditOp]:
+    """Ops of ``part`` about the neighbours' feature points and along their axes, merged
+    (first of each key kept, in order), cached: the same part is searched again with the
+    same neighbours (repair passes, the fallbacks of a search)."""
+    key = (part, *(np.asarray(h.corners, dtype=float).tobytes() for h in neighbour_hexahedra))
+    out = _ABOUT.get(key)
+    if out is None:
+        out = {}
+        for neighbour in neighbour_hexahedra:
+            points = [_vec(p) for p in neighbour.feature_points]
+            for n in directions(neighbour):
+                n = _vec(n)
+                for p in points:
+                    _add_made(out, Rotate, part, origin=p, axis=n)
+                    _add_made(out, Scale1D, part, origin=p, dir=n)
+                _add_made(out, Translate, part, dir=n)
+            for p in points:
+                _add_made(out, Scale3D, part, origin=p)
+        if len(_ABOUT) >= _ABOUT_SIZE:
+            _ABOUT.clear()
+        _ABOUT[key] = out
+    return out
 
 
 def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:

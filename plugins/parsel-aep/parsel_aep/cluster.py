@@ -30,7 +30,7 @@ import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import Compound, orthogonal_axes, translations
-from parsel_aep.screening import residual_slices
+from parsel_aep.screening import _Batch, residual_slices
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
 
@@ -100,8 +100,8 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     (their other basis amounts are left out); ``members``: for a repeated group edited
     through its virtual parent, the parts its ops move (each the same point map).
     """
-    def residuals(view) -> np.ndarray:
-        blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
+    def residuals(view, which=None) -> np.ndarray:
+        blocks = [np.asarray(r.residual(view), dtype=float) for r in (constraints if which is None else which)]
         lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
         return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
 
@@ -115,9 +115,18 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     for part in parts:
         compound = box_compound(part, hexahedra[part], frame, shears)
         targets = (members or {}).get(part, (part,))
-        moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}  # (Kp, 8, 3)
-        # (a part that none of the constraints reads gets zero slopes, not a missing block)
-        slopes.append(np.broadcast_to(residuals({**still, **moved}) - base, (compound.size, len(base))))
+        batch = _Batch(compound.basis)
+        moved = {m: batch.apply(rest[m], 1.0) for m in targets}                          # (Kp, 8, 3)
+        # Only the constraints on the moved parts change: the others' rows are base - base
+        # (a part that none of the constraints reads gets zero slopes, not a missing block).
+        slope = np.empty((compound.size, len(base)))
+        slope[:] = base - base
+        reading = [i for i, r in enumerate(constraints) if set(r.members) & set(targets)]
+        if reading:
+            columns = np.concatenate([np.arange(slices[i].start, slices[i].stop) for i in reading])
+            changed = residuals({**still, **moved}, [constraints[i] for i in reading])
+            slope[:, columns] = np.broadcast_to(changed - base[columns], (compound.size, len(columns)))
+        slopes.append(slope)
         moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets) / (8.0 * len(targets)))
         if part in translate_only:  # a part hinted to translate keeps its shape
             moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)

@@ -309,3 +309,77 @@ def test_fast_amounts_agree_with_the_exact_solver():
     for args in ((columns,), (columns, rows), (columns, rows, prior), (columns[:9], rows[:9], prior)):
         got, want = fast.amounts(*args), exact.amounts(*args)
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+
+
+def reference_slopes(parts, hexahedra, rest, constraints, frame, shears, members):
+    """build_system's slopes as first written: every constraint evaluated for every part."""
+    def residuals(view):
+        blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
+        lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
+        return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
+
+    involved = {m for r in constraints for m in r.members}
+    still = {m: rest[m][None] for m in involved}
+    base = residuals(still)[0]
+    out = []
+    for part in parts:
+        compound = cluster.box_compound(part, hexahedra[part], frame, shears)
+        targets = members.get(part, (part,))
+        moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}
+        out.append(np.broadcast_to(residuals({**still, **moved}) - base, (compound.size, len(base))))
+    return np.concatenate(out)
+
+
+@pytest.mark.parametrize("frame, shears", [("local", False), ("world", True)])
+def test_joint_slopes_evaluate_only_the_constraints_a_part_moves(frame, shears):
+    from parsel_core.loading import load_shape
+
+    shape = load_shape("chair")
+    rest = shape.rest_corners()
+    parts = sorted(shape.parts)[:4]
+    constraints = [r for r in shape.relations.values() if set(r.members) & set(parts)]
+    corners = {m: np.broadcast_to(c, (3, 8, 3)) for m, c in rest.items()}
+    hexahedra = {p: shape.part(p).hexahedron for p in parts}
+    system = cluster.build_system(parts, hexahedra, rest, corners, constraints, 1e-4, frame, shears)
+    want = reference_slopes(parts, hexahedra, rest, constraints, frame, shears, {})
+    assert system.slopes.tobytes() == np.ascontiguousarray(want).tobytes()
+
+
+def reference_neighbour_candidates(part, hexahedron, neighbour_ops, neighbour_hexahedra):
+    """neighbour_candidates as first written (every op built, then merged)."""
+    _vec = candidates._vec
+    out = {}
+    centre = hexahedron.center
+
+    def add(op):
+        out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+
+    for op in neighbour_ops:
+        params = dict(op.params())
+        add(type(op)(part, "f", **params))
+        origin = params.get("origin")
+        if origin is not None and op.name.startswith("scale"):
+            line = centre - np.asarray(origin)
+            if np.linalg.norm(line) > 1e-9:
+                add(Translate(part, "f", dir=_vec(line / np.linalg.norm(line))))
+    for neighbour in neighbour_hexahedra:
+        for n in candidates.directions(neighbour):
+            for p in neighbour.feature_points:
+                add(Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
+                add(Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
+            add(Translate(part, "f", dir=_vec(n)))
+        for p in neighbour.feature_points:
+            add(Scale3D(part, "f", origin=_vec(p)))
+    return list(out.values())
+
+
+def test_neighbour_candidates_keep_the_borrowed_ops_first():
+    rng = np.random.default_rng(6)
+    box, neighbours = skewed_box(rng), [skewed_box(rng), skewed_box(rng)]
+    p = candidates._vec(neighbours[0].feature_points[3])
+    n = candidates._vec(candidates.directions(neighbours[0])[1])
+    borrowed = [Scale1D("n0", "x", origin=p, dir=n), Rotate("n0", "x", origin=p, axis=n)]
+    for ops in (borrowed, [], borrowed):  # computed, then cached
+        got = candidates.neighbour_candidates("p", box, ops, neighbours)
+        want = reference_neighbour_candidates("p", box, ops, neighbours)
+        assert got == want and [type(op) for op in got] == [type(op) for op in want]

@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, cached_property
+from operator import attrgetter
 from types import SimpleNamespace
 
 import numpy as np
@@ -42,9 +43,9 @@ class Screened:
     offset: np.ndarray      # rotation: (K,) the constant part A is measured against
     errors: np.ndarray | None = None  # (R,) largest error of each constraint over the samples
 
-    @property
+    @cached_property
     def cost(self) -> float:
-        """Total error of the constraints left broken (breaking-edits compare it)."""
+        """Total error of the constraints left broken (breaking-edits compare it; computed once)."""
         if self.errors is None or not self.broken:
             return 0.0
         errors = self.errors[np.isfinite(self.errors)]
@@ -354,7 +355,10 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
                 continue
             broken = _broken_ids(system, errors, tolerance)
             results.append(Screened(compound, index, f, broken, "compound", slopes, system.r0, errors))
-    results.sort(key=lambda s: (s.index, len(s.broken)))
+    if per_constraint:  # a candidate appears once per constraint: fewest broken first
+        results.sort(key=lambda s: (s.index, len(s.broken)))
+    else:  # each candidate once: its index alone orders it
+        results.sort(key=attrgetter("index"))
     return results
 
 

@@ -15,13 +15,15 @@ so for a box ~200 candidates remain instead of thousands.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from parsel_core.hexahedron import EDGE_NAMES, FACE_NAMES, Hexahedron, feature_corners
-from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate
+from parsel_core.hexahedron import EDGE_NAMES, FACE_NAMES, Hexahedron, canonical_feature_name, feature_corners
+from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate, as_vector
 
 #: Which op families a type hint allows (reference section 4, step 8).
 HINT_TYPES = {
@@ -63,45 +65,89 @@ def candidate_family(op: EditOp) -> str:
     return f"{kind}_{'translate' if op.name == 'translate' else 'scale'}"
 
 
+#: own_candidates' merged lists by (part, rest corners, hint): the loop, the repair passes
+#: and the joint pass search the same parts again (bounded; cleared when full).
+_OWN: dict[tuple, tuple[EditOp, ...]] = {}
+_OWN_SIZE = 256
+
+
 def own_candidates(part: str, hexahedron: Hexahedron, hint: str | None = None) -> list[EditOp]:
-    """Every merged candidate for ``part`` from its own features, filtered by a type hint."""
+    """Every merged candidate for ``part`` from its own features, filtered by a type hint.
+
+    The ops are frozen and shared between calls on the same box (a new list each time).
+    """
+    key = (part, np.asarray(hexahedron.corners, dtype=float).tobytes(), hint)
+    ops = _OWN.get(key)
+    if ops is None:
+        if len(_OWN) >= _OWN_SIZE:
+            _OWN.clear()
+        ops = _OWN[key] = tuple(_own_candidates(part, hexahedron, hint))
+    return list(ops)
+
+
+def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list[EditOp]:
     points = hexahedron.feature_points
     dirs = directions(hexahedron)
     out: dict[tuple, EditOp] = {}
+    # Keys first, each op built only the first time its key appears (the first one is kept).
+    point_vecs = [_vec(p) for p in points]
+    dir_vecs = [_vec(d) for d in dirs]
+    dir_keys = [_key(d) for d in dirs]
 
-    def add(key: tuple, op: EditOp) -> None:
-        out.setdefault(key, op)
-
-    for d in dirs:
-        add(("translate", _key(d)), Translate(part, "f", dir=_vec(d)))
-    for n in dirs:
-        for p in points:
-            add(("scale_1d", _key(n), round(float(p @ n), 7)), Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
-            in_plane = p - (p @ n) * n
-            add(("scale_2d", _key(n), _key(in_plane)), Scale2D(part, "f", origin=_vec(p), normal=_vec(n)))
-            add(("rotate", _key(n), _key(in_plane)), Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
-        for d in dirs:
+    for dv, dk in zip(dir_vecs, dir_keys):
+        key = ("translate", dk)
+        if key not in out:
+            out[key] = _make(Translate, part, dir=dv)
+    for n, nv, nk in zip(dirs, dir_vecs, dir_keys):
+        heights = []
+        for p, pv in zip(points, point_vecs):
+            along = p @ n
+            height = round(float(along), 7)
+            heights.append(height)
+            key = ("scale_1d", nk, height)
+            if key not in out:
+                out[key] = _make(Scale1D, part, origin=pv, dir=nv)
+            plane = _key(p - along * n)
+            key = ("scale_2d", nk, plane)
+            if key not in out:
+                out[key] = _make(Scale2D, part, origin=pv, normal=nv)
+            key = ("rotate", nk, plane)
+            if key not in out:
+                out[key] = _make(Rotate, part, origin=pv, axis=nv)
+        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             if abs(float(n @ d)) > 1e-6:
                 continue
-            for p in points:
-                add(("shear", _key(n), _key(d), round(float(p @ n), 7)),
-                    Shear(part, "f", origin=_vec(p), normal=_vec(n), dir=_vec(d)))
-    for p in points:
-        add(("scale_3d", _key(p)), Scale3D(part, "f", origin=_vec(p)))
+            for pv, height in zip(point_vecs, heights):
+                key = ("shear", nk, dk, height)
+                if key not in out:
+                    out[key] = _make(Shear, part, origin=pv, normal=nv, dir=dv)
+    for p, pv in zip(points, point_vecs):
+        key = ("scale_3d", _key(p))
+        if key not in out:
+            out[key] = _make(Scale3D, part, origin=pv)
     corners = hexahedron.corners
     for face in FACE_NAMES:
         face_points = corners[list(feature_corners(face))]
         normal = hexahedron.face_normal(face)
-        for d in dirs:
-            add(("face_translate", face, _key(d)), Translate(part, "f", feature=face, dir=_vec(d)))
+        face_points = np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)])
+        face_vecs = None
+        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
+            key = ("face_translate", face, dk)
+            if key not in out:
+                out[key] = _make(Translate, part, feature=face, dir=dv)
             if abs(float(d @ normal)) > 0.9:
                 continue  # scaling a face along its normal only moves it: a face translation
-            for p in np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)]):
-                add(("face_scale", face, _key(d), round(float(p @ d), 7)),
-                    Scale1D(part, "f", feature=face, origin=_vec(p), dir=_vec(d)))
+            if face_vecs is None:
+                face_vecs = [_vec(p) for p in face_points]
+            for p, pv in zip(face_points, face_vecs):
+                key = ("face_scale", face, dk, round(float(p @ d), 7))
+                if key not in out:
+                    out[key] = _make(Scale1D, part, feature=face, origin=pv, dir=dv)
     for edge in EDGE_NAMES:
-        for d in dirs:
-            add(("edge_translate", edge, _key(d)), Translate(part, "f", feature=edge, dir=_vec(d)))
+        for dv, dk in zip(dir_vecs, dir_keys):
+            key = ("edge_translate", edge, dk)
+            if key not in out:
+                out[key] = _make(Translate, part, feature=edge, dir=dv)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
@@ -135,15 +181,140 @@ def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Seque
             line = centre - np.asarray(origin)
             if np.linalg.norm(line) > 1e-9:
                 add(Translate(part, "f", dir=_vec(line / np.linalg.norm(line))))
-    for neighbour in neighbour_hexahedra:
-        for n in directions(neighbour):
-            for p in neighbour.feature_points:
-                add(Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
-                add(Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
-            add(Translate(part, "f", dir=_vec(n)))
-        for p in neighbour.feature_points:
-            add(Scale3D(part, "f", origin=_vec(p)))
+    for key, op in _about_neighbours(part, neighbour_hexahedra).items():
+        out.setdefault(key, op)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
     return ops
+
+
+#: _about_neighbours' merged ops by (part, the neighbours' corners); bounded.
+_ABOUT: dict[tuple, dict[tuple, EditOp]] = {}
+_ABOUT_SIZE = 256
+
+
+def _about_neighbours(part: str, neighbour_hexahedra: Sequence[Hexahedron]) -> dict[tuple, EditOp]:
+    """Ops of ``part`` about the neighbours' feature points and along their axes, merged
+    (first of each key kept, in order), cached: the same part is searched again with the
+    same neighbours (repair passes, the fallbacks of a search)."""
+    key = (part, *(np.asarray(h.corners, dtype=float).tobytes() for h in neighbour_hexahedra))
+    out = _ABOUT.get(key)
+    if out is None:
+        out = {}
+        for neighbour in neighbour_hexahedra:
+            points = [_vec(p) for p in neighbour.feature_points]
+            for n in directions(neighbour):
+                n = _vec(n)
+                for p in points:
+                    _add_made(out, Rotate, part, origin=p, axis=n)
+                    _add_made(out, Scale1D, part, origin=p, dir=n)
+                _add_made(out, Translate, part, dir=n)
+            for p in points:
+                _add_made(out, Scale3D, part, origin=p)
+        if len(_ABOUT) >= _ABOUT_SIZE:
+            _ABOUT.clear()
+        _ABOUT[key] = out
+    return out
+
+
+def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:
+    """``out.setdefault(key, cls(part, "f", **params))`` keyed as :func:`neighbour_candidates`
+    merges (the op's name and normalised parameters), the op built only for a new key."""
+    fields = _normalised(cls, part, params)
+    if fields is None:  # a class :func:`_make` leaves to its constructor
+        op = cls(part, "f", **params)
+        out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+        return
+    key = (cls.name, tuple(sorted(fields)))
+    if key not in out:
+        out[key] = _make(cls, part, **params)
+
+
+#: Normalised vector fields by (unit, value): what ``EditOp.__post_init__`` makes of them.
+_VECTORS: dict[tuple, tuple[float, float, float]] = {}
+#: Per op class: its own fields (name, default), and whether :func:`_make` builds it
+#: exactly as the constructor does (checked on the first op of each class).
+_LAYOUT: dict[type, tuple[tuple[tuple[str, object], ...], bool]] = {}
+
+
+def _make(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
+    """``cls(part, "f", feature=feature, **params)`` for the valid parameters candidates use,
+    without validating them again (a few hundred ops per part, every one a dataclass whose
+    ``__post_init__`` parses the amount and normalises each vector). The fields hold the
+    values the constructor would store: vectors normalised as ``as_vector`` does (cached),
+    the feature name made canonical. The first op of each class is also built by its
+    constructor and compared; a class where the two differ is always built by it."""
+    layout = _LAYOUT.get(cls)
+    if layout is None:
+        own = tuple((f.name, f.default) for f in dataclasses.fields(cls)
+                    if f.name not in ("operand", "amount", "feature"))
+        _LAYOUT[cls] = (own, True)
+        try:
+            built = cls(part, "f", feature=feature, **params)
+            same = _fast_make(cls, own, part, feature, params)
+            exact = type(same) is cls and same == built and vars(same) == vars(built)
+        except Exception:  # anything unusual: the constructor decides
+            exact = False
+        layout = _LAYOUT[cls] = (own, exact)
+    if not layout[1]:
+        return cls(part, "f", feature=feature, **params)
+    return _fast_make(cls, layout[0], part, feature, params)
+
+
+def _normalised(cls: type, part: str, params: dict) -> list[tuple[str, object]] | None:
+    """``list(cls(part, "f", **params).params().items())`` without building the op; ``None``
+    for a class :func:`_make` leaves to its constructor."""
+    layout = _LAYOUT.get(cls)
+    if layout is None:
+        _make(cls, part, **params)  # (checks the class)
+        layout = _LAYOUT[cls]
+    if not layout[1]:
+        return None
+    out = []
+    for name, default in layout[0]:
+        value = params.get(name, default)
+        if value is dataclasses.MISSING:
+            return None
+        out.append((name, _vector(cls, name, value)))
+    return out
+
+
+def _vector(cls: type, name: str, value):
+    """The value ``EditOp.__post_init__`` stores for field ``name`` (vectors normalised)."""
+    unit = name in cls.unit_fields
+    if not (unit or name in cls.point_fields):
+        return value
+    # (-0.0 == 0.0, but as_vector keeps the sign)
+    key = (unit, value, tuple(math.copysign(1.0, v) for v in value) if 0.0 in value else None)
+    vector = _VECTORS.get(key)
+    if vector is None:
+        if len(_VECTORS) >= 100_000:
+            _VECTORS.clear()
+        vector = _VECTORS[key] = as_vector(value, f"{cls.name}.{name}", unit=unit)
+    return vector
+
+
+def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:
+    op = object.__new__(cls)
+    put = object.__setattr__
+    put(op, "operand", part)
+    put(op, "amount", "f")
+    put(op, "feature", None if feature is None else _canonical(feature))
+    for name, default in own:
+        value = params.get(name, default)
+        if value is dataclasses.MISSING:
+            return cls(part, "f", feature=feature, **params)
+        put(op, name, _vector(cls, name, value))
+    return op
+
+
+_CANONICAL: dict[str, str] = {}
+
+
+def _canonical(feature: str) -> str:
+    name = _CANONICAL.get(feature)
+    if name is None:
+        feature_corners(feature)  # (raises for a name that is not a feature)
+        name = _CANONICAL[feature] = canonical_feature_name(feature)
+    return name

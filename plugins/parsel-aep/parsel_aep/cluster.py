@@ -22,14 +22,15 @@ cluster's edits only when the whole shape's error goes down.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import Compound, orthogonal_axes, translations
-from parsel_aep.screening import residual_slices
+from parsel_aep.screening import _Batch, residual_slices
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
 
@@ -54,6 +55,9 @@ class ClusterSystem:
     weights: np.ndarray             # (B,) corner displacement per unit basis amount
     costs: np.ndarray               # (B,) preference: translations, then scalings, then shears
     allowances: np.ndarray          # (R,) each constraint's allowed drift
+    #: :func:`solver`'s matrices by their inputs: the passes of :func:`solve` meet the same
+    #: system again (a kept set both drops reach, reweighting that has settled).
+    solved: dict = field(default_factory=dict, repr=False, compare=False)
 
 
 def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = False) -> Compound:
@@ -96,8 +100,8 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     (their other basis amounts are left out); ``members``: for a repeated group edited
     through its virtual parent, the parts its ops move (each the same point map).
     """
-    def residuals(view) -> np.ndarray:
-        blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
+    def residuals(view, which=None) -> np.ndarray:
+        blocks = [np.asarray(r.residual(view), dtype=float) for r in (constraints if which is None else which)]
         lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
         return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
 
@@ -111,9 +115,18 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     for part in parts:
         compound = box_compound(part, hexahedra[part], frame, shears)
         targets = (members or {}).get(part, (part,))
-        moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}  # (Kp, 8, 3)
-        # (a part that none of the constraints reads gets zero slopes, not a missing block)
-        slopes.append(np.broadcast_to(residuals({**still, **moved}) - base, (compound.size, len(base))))
+        batch = _Batch(compound.basis)
+        moved = {m: batch.apply(rest[m], 1.0) for m in targets}                          # (Kp, 8, 3)
+        # Only the constraints on the moved parts change: the others' rows are base - base
+        # (a part that none of the constraints reads gets zero slopes, not a missing block).
+        slope = np.empty((compound.size, len(base)))
+        slope[:] = base - base
+        reading = [i for i, r in enumerate(constraints) if set(r.members) & set(targets)]
+        if reading:
+            columns = np.concatenate([np.arange(slices[i].start, slices[i].stop) for i in reading])
+            changed = residuals({**still, **moved}, [constraints[i] for i in reading])
+            slope[:, columns] = np.broadcast_to(changed - base[columns], (compound.size, len(columns)))
+        slopes.append(slope)
         moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets) / (8.0 * len(targets)))
         if part in translate_only:  # a part hinted to translate keeps its shape
             moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)
@@ -153,18 +166,40 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
     when the system can be met exactly).
     """
     p = _prior(system) if prior is None else prior
+    key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+    out = system.solved.get(key)
+    if out is not None:
+        return out
     a = system.slopes[:, columns].T * p                                               # (K', B)
     if rows is not None:
         a = a * rows[:, None]
     norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
     out = np.linalg.pinv(a / norm, rcond=1e-9) / norm * p[:, None]
-    return out * rows[None, :] if rows is not None else out
+    if rows is not None:
+        out = out * rows[None, :]
+    out.flags.writeable = False
+    system.solved[key] = out
+    return out
 
 
 def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
     """Largest |residual| over the samples, per constraint, for amounts ``f`` (S, B)."""
     residual = np.abs(system.r0 + f @ system.slopes)
-    return np.array([residual[:, s].max(initial=0.0) for s in system.slices])
+    return _slice_max(residual.max(axis=0, initial=0.0), system.slices)
+
+
+def _slice_max(values: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
+    """``values[s].max(initial=0.0)`` for each of the consecutive ``slices`` (R,)."""
+    out = np.zeros(len(slices))
+    starts = np.array([s.start for s in slices], dtype=int)
+    filled = np.array([s.stop > s.start for s in slices], dtype=bool)
+    consecutive = all(a.stop == b.start for a, b in zip(slices, slices[1:])) and (
+        not slices or slices[-1].stop == len(values))
+    if not consecutive:
+        return np.array([values[s].max(initial=0.0) for s in slices])
+    if filled.any():
+        out[filled] = np.maximum.reduceat(values, starts[filled])
+    return out
 
 
 def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
@@ -173,13 +208,132 @@ def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
     return np.concatenate([np.arange(system.slices[i].start, system.slices[i].stop) for i in kept])
 
 
-def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
+class _Borderline(Exception):
+    """A decision of the numerical plan too close to call with one BLAS thread's rounding."""
+
+
+#: What a fast solve may raise instead of deciding: the step is then decided exactly.
+_REFUSED = (_Borderline, np.linalg.LinAlgError, FloatingPointError)
+
+
+class _Numerics:
+    """How :func:`solve` solves while it decides: the exact solver, or a fast one.
+
+    The decisions of :func:`solve` (which constraints to drop, which amounts to leave out)
+    are discrete, and its result is one last solve fixed by them. The decisions can be
+    made on one BLAS thread: OpenBLAS's threads make the SVD of a 500 x 200 system 20-50
+    times costlier in CPU time on a shared machine, and change its last bits. ``fast``
+    numerics raise :class:`_Borderline` whenever a decision is within ``MARGIN`` (relative)
+    of going the other way, or a singular value is near pinv's cutoff; that step is then
+    decided again with the exact solver (:attr:`exact`). The final solve is always the
+    exact one, so the result is the one the exact decisions give, bit for bit.
+    """
+
+    #: Relative distance from a threshold that a fast decision must keep.
+    MARGIN = 1e-6
+    #: Relative distance from pinv's cutoff that a fast singular value must keep.
+    CUTOFF_MARGIN = 1e-4
+
+    def __init__(self, system: ClusterSystem, fast: bool) -> None:
+        self.system, self.fast = system, fast
+        self.solved: dict = {}
+        self.exact = _Numerics(system, fast=False) if fast else self
+
+    def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
+                prior: np.ndarray | None = None) -> np.ndarray:
+        """The amounts (S, B) of :func:`solver`'s matrix on ``r0``; fast: solved directly by
+        least squares on one BLAS thread (LAPACK gelsd, the same minimum-norm solution with
+        the same cutoff), refused near the cutoff, amounts with a zero prior left out."""
+        if not self.fast:
+            return _amounts(self.system, solver(self.system, columns, rows, prior), columns)
+        p = _prior(self.system) if prior is None else prior
+        key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+        out = self.solved.get(key)
+        if out is None:
+            live = np.flatnonzero(p)
+            a = self.system.slopes[np.ix_(live, columns)].T * p[live]                   # (K', B')
+            b = self.system.r0[:, columns].T                                           # (K', S)
+            if rows is not None:
+                a = a * rows[:, None]
+                b = rows[:, None] * b
+            norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+            with one_blas_thread():
+                y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+            out = np.zeros((len(p), b.shape[1]))
+            out[live] = p[live, None] * y / norm
+            out = self.solved[key] = -out.T
+        return out
+
+    def below(self, values: np.ndarray, limits) -> np.ndarray:
+        """``values < limits``; fast: refused (:class:`_Borderline`) near equality or for
+        values that are not finite."""
+        values = np.asarray(values, dtype=float)
+        limits = np.broadcast_to(np.asarray(limits, dtype=float), values.shape)
+        if self.fast and (not np.all(np.isfinite(values))
+                          or np.any(np.abs(values - limits) <= self.MARGIN * np.abs(limits))):
+            raise _Borderline
+        return values < limits
+
+    def worst(self, ratios: Sequence[tuple[float, int]]) -> tuple[float, int]:
+        """``max(ratios)``; fast: refused when the two largest are within the margin."""
+        best = max(ratios)
+        if self.fast and len(ratios) > 1:
+            second = sorted(ratios)[-2]
+            if best[0] - second[0] <= self.MARGIN * abs(best[0]):
+                raise _Borderline
+        return best
+
+    def less(self, a: float, b: float) -> bool:
+        """``a < b`` for two error totals; fast: refused when they are within the margin."""
+        if self.fast and (not (np.isfinite(a) and np.isfinite(b)) or abs(a - b) <= self.MARGIN * max(abs(a), abs(b))):
+            raise _Borderline
+        return a < b
+
+    def positive(self, value: float, columns: np.ndarray) -> bool:
+        """``value > 0`` for the largest amount; fast: refused for an amount that could be a
+        rounding of zero (exactly zero only when the residuals are)."""
+        if self.fast:
+            if value == 0.0 and not np.any(self.system.r0[:, columns]):
+                return False
+            if not value > 1e-250:
+                raise _Borderline
+        return bool(value > 0)
+
+
+def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float) -> np.ndarray:
+    """``np.linalg.pinv(a, rcond) @ b`` by ``np.linalg.lstsq`` (singular values up to
+    ``rcond`` times the largest count as zero in both), refused (:class:`_Borderline`) when
+    a singular value is within ``margin`` (relative) of that cutoff."""
+    if a.size == 0:
+        return np.zeros((a.shape[1], b.shape[1]))
+    y, _, _, s = np.linalg.lstsq(a, b, rcond=rcond)
+    cutoff = rcond * s.max(initial=0.0)
+    if not cutoff > 0:  # a zero matrix (or not finite: refused)
+        if np.all(s == 0):
+            return np.zeros((a.shape[1], b.shape[1]))
+        raise _Borderline
+    if np.any(np.abs(s - cutoff) <= margin * cutoff) or not np.all(np.isfinite(y)):
+        raise _Borderline
+    return y
+
+
+def _sparse_breaks(system: ClusterSystem, iterations: int = 12, numerics: _Numerics | None = None) -> list[int]:
     """The constraints to keep, chosen by iteratively reweighted least squares.
 
     Minimising the sum of the relations' errors (not their squares) breaks few relations
     by a lot rather than many by a little: each pass weighs a relation's rows by
     ``1 / sqrt(its error over its allowance)``.
     """
+    numerics = numerics or _Numerics(system, fast=False)
+    try:
+        return _reweighted(system, iterations, numerics)
+    except _REFUSED:
+        if not numerics.fast:
+            raise
+        return _reweighted(system, iterations, numerics.exact)
+
+
+def _reweighted(system: ClusterSystem, iterations: int, numerics: _Numerics) -> list[int]:
     everything = list(range(len(system.constraints)))
     columns = _columns(system, everything)
     sizes = np.array([s.stop - s.start for s in system.slices])
@@ -187,9 +341,10 @@ def _sparse_breaks(system: ClusterSystem, iterations: int = 12) -> list[int]:
     for _ in range(iterations):
         weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
         rows = np.repeat(weight / np.sqrt(sizes), sizes)
-        f = _amounts(system, solver(system, columns, rows), columns)
+        f = numerics.amounts(columns, rows)
         relative = relation_errors(system, f) / system.allowances
-    return [i for i in everything if relative[i] < 1.0]
+    below = numerics.below(relative, 1.0)
+    return [i for i in everything if below[i]]
 
 
 def _row_weights(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
@@ -200,48 +355,98 @@ def _row_weights(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
                            for i in kept]) if kept else np.zeros(0)
 
 
-def _drop_until_kept(system: ClusterSystem, kept: list[int]) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """Solve on ``kept``; while a kept constraint fails, drop the worst (error over allowance)."""
+def _drop_until_kept(system: ClusterSystem, kept: list[int], numerics: _Numerics | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Solve on ``kept``; while a kept constraint fails, drop the worst (error over allowance).
+
+    Each step depends only on the constraints still kept, so a step too close to call with
+    fast numerics is decided with the exact ones and the next steps go on fast.
+    """
+    numerics = numerics or _Numerics(system, fast=False)
     kept = list(kept)
     while True:
-        columns = _columns(system, kept)
-        matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
-        f = _amounts(system, matrix, columns)
-        errors = relation_errors(system, f)
-        over = [(errors[i] / system.allowances[i], i) for i in kept if not errors[i] < system.allowances[i]]
-        if not over:
+        try:
+            f, matrix, worst = _drop_step(system, kept, numerics)
+        except _REFUSED:
+            if not numerics.fast:
+                raise
+            f, matrix, worst = _drop_step(system, kept, numerics.exact)
+        if worst is None:
             return f, matrix, kept
-        kept.remove(max(over)[1])
+        kept.remove(worst)
 
 
-def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray,
-             iterations: int = 12) -> tuple[np.ndarray, np.ndarray] | None:
+def _drop_step(system: ClusterSystem, kept: list[int], numerics: _Numerics):
+    """The solve on ``kept`` and the constraint to drop next (``None``: all are kept)."""
+    columns = _columns(system, kept)
+    if not kept:
+        matrix = np.zeros((len(system.weights), 0))
+        f = _amounts(system, matrix, columns)
+    elif numerics.fast:  # (only the amounts: the matrix is solved exactly once chosen)
+        matrix, f = None, numerics.amounts(columns, _row_weights(system, kept))
+    else:
+        matrix = solver(system, columns, _row_weights(system, kept))
+        f = _amounts(system, matrix, columns)
+    errors = relation_errors(system, f)
+    held = numerics.below(errors[kept], system.allowances[kept]) if kept else np.zeros(0, dtype=bool)
+    over = [(errors[i] / system.allowances[i], i) for i, ok in zip(kept, held) if not ok]
+    return f, matrix, numerics.worst(over)[1] if over else None
+
+
+def sparsify(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int = 12,
+             numerics: _Numerics | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """The same constraints met by as few basis amounts as possible, or ``None``.
 
     The least-squares solution spreads a little of every basis op over the cluster (a
     stretcher's tilt shared by the legs as 1e-5 shears). Reweighted least squares
     (FOCUSS, with the prior ``sqrt(|g|) / c`` for costed displacements ``g``) drives the
     unneeded amounts to zero; those are left out and the rest solved again exactly.
+    ``f`` is the least-costed solution on ``kept`` (exact: fast numerics start from it
+    but decide again from the exact one when they cannot decide).
     """
+    found = _sparse_prior(system, kept, f, iterations, numerics or _Numerics(system, fast=False))
+    if found is None:
+        return None
+    columns = _columns(system, kept)
+    matrix = solver(system, columns, _row_weights(system, kept), prior=found)
+    return _amounts(system, matrix, columns), matrix
+
+
+def _sparse_prior(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int,
+                  numerics: _Numerics) -> np.ndarray | None:
+    """The prior of :func:`sparsify`'s solution (amounts left out are 0), or ``None``."""
+    try:
+        return _focuss(system, kept, f, iterations, numerics)
+    except _REFUSED:
+        if not numerics.fast:
+            raise
+    columns = _columns(system, kept)
+    if kept:  # the exact least-costed solution the exact decisions start from
+        f = _amounts(system, solver(system, columns, _row_weights(system, kept)), columns)
+    return _focuss(system, kept, f, iterations, numerics.exact)
+
+
+def _focuss(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iterations: int,
+            numerics: _Numerics) -> np.ndarray | None:
     columns = _columns(system, kept)
     rows = _row_weights(system, kept)
     base, c = _prior(system), _costed(system)
     g = np.abs(f * c).max(axis=0)
-    if not g.max() > 0:
+    if not numerics.positive(g.max(), columns):
         return None
     for _ in range(iterations):
-        matrix = solver(system, columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
-        g = np.abs(_amounts(system, matrix, columns) * c).max(axis=0)
-        if not g.max() > 0:
+        f = numerics.amounts(columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
+        g = np.abs(f * c).max(axis=0)
+        if not numerics.positive(g.max(), columns):
             return None
     # The amounts left small are dropped, boldly first; the rest is solved again exactly.
     for threshold in (1e-2, 1e-4, 1e-6):
+        numerics.below(g, threshold * g.max())  # (fast: refused near the threshold)
         prior = np.where(g > threshold * g.max(), base, 0.0)
-        matrix = solver(system, columns, rows, prior=prior)
-        f = _amounts(system, matrix, columns)
+        f = numerics.amounts(columns, rows, prior=prior)
         errors = relation_errors(system, f)
-        if all(errors[i] < system.allowances[i] for i in kept):
-            return f, matrix
+        if not kept or numerics.below(errors[list(kept)], system.allowances[list(kept)]).all():
+            return prior
     return None
 
 
@@ -253,19 +458,80 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     (:func:`_sparse_breaks`). The one keeping more constraints (then less total error)
     wins; the dropped constraints are the cluster's breaking-edits. The amounts are then
     made sparse (:func:`sparsify`).
+
+    The choices are made with fast numerics (one BLAS thread), each again with the exact
+    ones when it is too close to call (:class:`_Numerics`); the amounts and the solver
+    returned are the exact solve of what was chosen.
     """
+    kept, prior = _plan(system, _Numerics(system, fast=True))
+    columns = _columns(system, kept)
+    if not kept:
+        matrix = np.zeros((len(system.weights), 0))
+    else:
+        matrix = solver(system, columns, _row_weights(system, kept), prior)
+    return _amounts(system, matrix, columns), matrix, kept
+
+
+def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.ndarray | None]:
+    """:func:`solve`'s choices: the constraints kept and the prior of the sparse solution
+    (``None``: the plain least-costed one)."""
     everything = list(range(len(system.constraints)))
     best = None
-    for start in (everything, _sparse_breaks(system)):
-        f, matrix, kept = _drop_until_kept(system, start)
-        errors = relation_errors(system, f) / system.allowances
-        score = (-len(kept), float(np.sum(errors[errors >= 1.0])))
-        if best is None or score < best[0]:
-            best = (score, f, matrix, kept)
+    for start in (everything, None):
+        if start is None:  # only needed when not everything can be kept
+            start = _sparse_breaks(system, numerics=numerics)
+        f, _, kept = _drop_until_kept(system, start, numerics)
+        if best is not None and kept == best[2]:
+            break  # the same solve: the same score, and the first one stays
+        try:
+            score = _score(system, f, kept, numerics)
+            better = best is None or _better(score, best[0], numerics)
+        except _REFUSED:
+            if not numerics.fast:
+                raise
+            f = _exact_amounts(system, kept)
+            score = _score(system, f, kept, numerics.exact)
+            better = best is None or _better(
+                score, _score(system, _exact_amounts(system, best[2]), best[2], numerics.exact), numerics.exact)
+        if better:
+            best = (score, f, kept)
         if len(kept) == len(everything):
             break
-    _, f, matrix, kept = best
-    sparse = sparsify(system, kept, f)
-    if sparse is not None:
-        f, matrix = sparse
-    return f, matrix, kept
+    _, f, kept = best
+    return kept, _sparse_prior(system, kept, f, 12, numerics)
+
+
+def _score(system: ClusterSystem, f: np.ndarray, kept: list[int], numerics: _Numerics) -> tuple[int, float]:
+    """Fewest constraints given up, then least total error of the broken ones."""
+    errors = relation_errors(system, f) / system.allowances
+    numerics.below(errors, 1.0)  # (fast: refused near 1)
+    return -len(kept), float(np.sum(errors[errors >= 1.0]))
+
+
+def _better(score: tuple[int, float], than: tuple[int, float], numerics: _Numerics) -> bool:
+    """``score < than``, the totals compared by :meth:`_Numerics.less`."""
+    if score[0] != than[0]:
+        return score[0] < than[0]
+    return numerics.less(score[1], than[1])
+
+
+def _exact_amounts(system: ClusterSystem, kept: list[int]) -> np.ndarray:
+    columns = _columns(system, kept)
+    matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
+    return _amounts(system, matrix, columns)
+
+
+_BLAS = None
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread (no limit without ``threadpoolctl``)."""
+    global _BLAS
+    if _BLAS is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS = ThreadpoolController()
+        except ImportError:  # pragma: no cover - threadpoolctl is a dependency
+            _BLAS = False
+    return _BLAS.limit(limits=1, user_api="blas") if _BLAS else contextlib.nullcontext()

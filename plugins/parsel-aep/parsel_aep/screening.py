@@ -16,12 +16,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cache, cached_property
+from operator import attrgetter
 from types import SimpleNamespace
 
 import numpy as np
 
 from parsel_aep.compound import Compound
-from parsel_core.ops import EditOp, Rotate
+from parsel_core.hexahedron import feature_corners
+from parsel_core.ops import EditOp, Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate
 from parsel_core.relations import Relation
 
 NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos)
@@ -40,9 +43,9 @@ class Screened:
     offset: np.ndarray      # rotation: (K,) the constant part A is measured against
     errors: np.ndarray | None = None  # (R,) largest error of each constraint over the samples
 
-    @property
+    @cached_property
     def cost(self) -> float:
-        """Total error of the constraints left broken (breaking-edits compare it)."""
+        """Total error of the constraints left broken (breaking-edits compare it; computed once)."""
         if self.errors is None or not self.broken:
             return 0.0
         errors = self.errors[np.isfinite(self.errors)]
@@ -51,6 +54,17 @@ class Screened:
 
 def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.concatenate([np.asarray(r.residual(corners), dtype=float) for r in relations], axis=-1)
+
+
+def _residuals_and_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]
+                          ) -> tuple[np.ndarray, list[slice]]:
+    """:func:`_residuals` and :func:`residual_slices` from one evaluation."""
+    blocks = [np.asarray(r.residual(corners), dtype=float) for r in relations]
+    out, start = [], 0
+    for block in blocks:
+        out.append(slice(start, start + block.shape[-1]))
+        start += block.shape[-1]
+    return np.concatenate(blocks, axis=-1), out
 
 
 def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> list[slice]:
@@ -64,12 +78,124 @@ def residual_slices(relations: Sequence[Relation], corners: Mapping[str, np.ndar
 
 
 def _apply_all(ops: Sequence[EditOp], rest: np.ndarray, amount: float) -> np.ndarray:
-    return np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])
+    """Every op applied to the rest corners (8, 3) at one amount: (N, 8, 3)."""
+    return _Batch(ops).apply(rest, amount)
+
+
+class _Batch:
+    """Ops applied together: those of one class on one feature at once (:func:`_apply_batch`,
+    their vector fields gathered once for every amount and part), any other op (an
+    :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``."""
+
+    def __init__(self, ops: Sequence[EditOp]) -> None:
+        self.ops = list(ops)
+        groups: dict[tuple, list[int]] = {}
+        self.single: list[int] = []
+        for i, op in enumerate(self.ops):
+            if type(op) in _BATCHED:
+                groups.setdefault((type(op), op.feature), []).append(i)
+            else:
+                self.single.append(i)
+        self.groups = [(kind, feature, index, _fields(kind, [self.ops[i] for i in index]))
+                       for (kind, feature), index in groups.items()]
+
+    def apply(self, rest: np.ndarray, amount: float) -> np.ndarray:
+        out = np.empty((len(self.ops), 8, 3))
+        for i in self.single:
+            out[i] = self.ops[i].apply(rest, amount, NUMPY_MATH)
+        for kind, feature, index, fields in self.groups:
+            out[index] = _apply_batch(kind, feature, fields, rest, amount)
+        return out
+
+
+#: The vector fields each batched class reads, in :func:`_apply_batch`'s order.
+_FIELDS = {"Translate": ("dir",), "Rotate": ("origin", "axis"), "Scale1D": ("origin", "dir"),
+           "Scale2D": ("origin", "normal"), "Scale3D": ("origin",), "Shear": ("origin", "normal", "dir")}
+
+
+def _fields(kind: type, ops: Sequence[EditOp]) -> tuple[np.ndarray, ...]:
+    return tuple(_column(ops, name) for name in _FIELDS[kind.__name__])
+
+
+def _column(ops: Sequence[EditOp], name: str) -> np.ndarray:
+    """A vector field of every op, shaped (G, 1, 3) to broadcast over the corners."""
+    return np.array([getattr(op, name) for op in ops], dtype=float)[:, None, :]
+
+
+def _dot(points: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """``parsel_core.ops._dot`` with one vector per op (the same arithmetic, term by term)."""
+    return points[..., 0:1] * n[..., 0:1] + points[..., 1:2] * n[..., 1:2] + points[..., 2:3] * n[..., 2:3]
+
+
+def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``parsel_core.ops._cross`` with one vector per op."""
+    x, y, z = points[..., 0:1], points[..., 1:2], points[..., 2:3]
+    a, b, c = n[..., 0:1], n[..., 1:2], n[..., 2:3]
+    return np.concatenate([b * z - c * y, c * x - a * z, a * y - b * x], axis=-1)
+
+
+def _apply_batch(kind: type, feature: str | None, fields: tuple[np.ndarray, ...], rest: np.ndarray,
+                 amount: float) -> np.ndarray:
+    """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class
+    on one feature, given their vector fields (:func:`_fields`, each (G, 1, 3)), with the
+    operations of each op's ``transform`` in the same order, so the result is the same to
+    the last bit."""
+    index = None if feature is None else list(_corner_indices(feature))
+    points = rest if index is None else rest[index]
+    if kind is Translate:
+        (d,) = fields
+        moved = points + d * amount
+    elif kind is Rotate:
+        o, axis = fields
+        centred = points - o
+        cos, sin = NUMPY_MATH.cos(amount), NUMPY_MATH.sin(amount)
+        rotated = centred * cos + _cross(axis, centred) * sin + _dot(centred, axis) * axis * (1 - cos)
+        moved = o + rotated
+    elif kind is Scale1D:
+        o, d = fields
+        centred = points - o
+        moved = o + centred + _dot(centred, d) * d * amount
+    elif kind is Scale2D:
+        o, n = fields
+        centred = points - o
+        along = _dot(centred, n) * n
+        moved = o + (centred - along) * (1 + amount) + along
+    elif kind is Scale3D:
+        (o,) = fields
+        moved = o + (points - o) * (1 + amount)
+    else:  # Shear
+        o, n, d = fields
+        centred = points - o
+        moved = o + centred + _dot(centred, n) * d * amount
+    if index is None:
+        return moved
+    out = np.array(np.broadcast_to(rest, (len(fields[0]), 8, 3)))
+    out[:, index, :] = moved
+    return out
+
+
+_BATCHED = frozenset({Translate, Rotate, Scale1D, Scale2D, Scale3D, Shear})
+
+
+@cache
+def _corner_indices(feature: str) -> tuple[int, ...]:
+    return feature_corners(feature)
 
 
 def relation_max_errors(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
     """Max |residual| per relation: (..., R) from (..., S, K)."""
+    starts = [s.start for s in slices]
+    if (slices and starts[0] == 0 and slices[-1].stop == residual.shape[-1] and residual.shape[-2] > 0
+            and all(a.stop == b.start and a.stop > a.start for a, b in zip(slices, slices[1:]))
+            and slices[-1].stop > slices[-1].start):
+        # consecutive, non-empty slices: the largest over the samples, then over each slice
+        return np.maximum.reduceat(np.abs(residual).max(axis=-2), starts, axis=-1)
     return np.stack([np.abs(residual[..., s]).max(axis=(-1, -2)) for s in slices], axis=-1)
+
+
+def _max_abs_per_slice(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
+    """:func:`relation_max_errors` of a scratch array (overwritten by its absolute values)."""
+    return relation_max_errors(np.abs(residual, out=residual), slices)
 
 
 @dataclass
@@ -96,11 +222,12 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     r0 = np.nan_to_num(_residuals(constraints, {**others, **rest_view}), nan=0.0, posinf=0.0, neginf=0.0)
     first = {pid: c[:1][None] for pid, c in others.items()}                     # (1, 1, 8, 3)
     rest_one = {p: c[None, None] for p, c in moving.items()}
-    base = _residuals(constraints, {**first, **rest_one})[0, 0]                  # (K,)
-    slices = residual_slices(constraints, {**first, **rest_one})
+    base, slices = _residuals_and_slices(constraints, {**first, **rest_one})
+    base = base[0, 0]                                                            # (K,)
 
     def residual_at(ops, amount):
-        moved = {pid: _apply_all(ops, c, amount)[:, None] for pid, c in moving.items()}
+        batch = ops if isinstance(ops, _Batch) else _Batch(ops)
+        moved = {pid: batch.apply(c, amount)[:, None] for pid, c in moving.items()}
         return _residuals(constraints, {**first, **moved})[:, 0]               # (N, K)
 
     affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, (Rotate, Compound))]
@@ -108,7 +235,7 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     k = r0.shape[-1]
     slope = residual_at([op for _, op in affine], 1.0) - base if affine else np.zeros((0, k))
     if rotations:
-        ops = [op for _, op in rotations]
+        ops = _Batch([op for _, op in rotations])
         at0, at90, at180 = (residual_at(ops, angle) for angle in (0.0, np.pi / 2, np.pi))
         offset = (at0 - at180) / 2
         matrix = np.stack([offset, at90 - (at0 + at180) / 2], axis=-1)
@@ -160,6 +287,23 @@ def _broken_ids(system: _System, errors: np.ndarray, tolerance: float) -> tuple[
     return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
 
 
+def _broken_ids_all(system: _System, errors: np.ndarray, tolerance: float) -> list[tuple[str, ...]]:
+    """:func:`_broken_ids` of every row of ``errors`` (N, R); rows with the same broken
+    constraints share one tuple."""
+    allowed = np.maximum(tolerance, system.rest_errors)
+    broken = ~(errors < allowed)
+    keys = np.packbits(broken, axis=-1)
+    known: dict[bytes, tuple[str, ...]] = {}
+    out = []
+    for row, key in zip(broken, keys):
+        key = key.tobytes()
+        ids = known.get(key)
+        if ids is None:
+            ids = known[key] = tuple(system.ids[i] for i in np.flatnonzero(row))
+        out.append(ids)
+    return out
+
+
 def _rotation_residual(system: _System, n: int, f: np.ndarray) -> np.ndarray:
     gamma = system.r0 - system.offset[n]
     return (system.matrix[n] @ np.stack([np.cos(f), np.sin(f)])).T + gamma
@@ -184,24 +328,25 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
     for columns in column_sets:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
-            residual = system.r0[None] + f[:, :, None] * system.slope[:, None, :]
-            errors = relation_max_errors(residual, system.slices)
-            for n, (index, op) in enumerate(system.affine):
-                if usable[n]:
-                    broken = _broken_ids(system, errors[n], tolerance)
-                    results.append(Screened(op, index, f[n], broken, "affine", system.slope[n], system.r0,
-                                            errors[n]))
+            residual = f[:, :, None] * system.slope[:, None, :]
+            residual += system.r0                                                      # r0 + f a, in place
+            errors = _max_abs_per_slice(residual, system.slices)
+            broken = _broken_ids_all(system, errors, tolerance)
+            for n in np.flatnonzero(usable):
+                index, op = system.affine[n]
+                results.append(Screened(op, index, f[n], broken[n], "affine", system.slope[n], system.r0, errors[n]))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
-            residual = (np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
-                        + system.r0[None] - system.offset[:, None, :])
-            errors = relation_max_errors(residual, system.slices)
-            for n, (index, op) in enumerate(system.rotations):
-                if usable[n]:
-                    broken = _broken_ids(system, errors[n], tolerance)
-                    results.append(Screened(op, index, f_all[n], broken, "rotation", system.matrix[n],
-                                            system.offset[n], errors[n]))
+            residual = np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
+            residual += system.r0                                                      # (A c + B s + r0) - A
+            residual -= system.offset[:, None, :]
+            errors = _max_abs_per_slice(residual, system.slices)
+            broken = _broken_ids_all(system, errors, tolerance)
+            for n in np.flatnonzero(usable):
+                index, op = system.rotations[n]
+                results.append(Screened(op, index, f_all[n], broken[n], "rotation", system.matrix[n],
+                                        system.offset[n], errors[n]))
         for index, compound, slopes in system.compounds or ():
             f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
             residual = system.r0 + f @ slopes
@@ -210,7 +355,10 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
                 continue
             broken = _broken_ids(system, errors, tolerance)
             results.append(Screened(compound, index, f, broken, "compound", slopes, system.r0, errors))
-    results.sort(key=lambda s: (s.index, len(s.broken)))
+    if per_constraint:  # a candidate appears once per constraint: fewest broken first
+        results.sort(key=lambda s: (s.index, len(s.broken)))
+    else:  # each candidate once: its index alone orders it
+        results.sort(key=attrgetter("index"))
     return results
 
 

@@ -1,0 +1,279 @@
+"""AEP solver speed, old against new, and proof that the programs did not change.
+
+A fixed list of requests (the first random-seed requests of ``bench_aep.py``, designer
+seeds spread over ``bench_aep.py``'s designer shapes, and the seeds of the property
+tests in ``plugins/parsel-aep/tests/test_properties.py``) is solved by two worker
+processes, one importing ``parsel_aep`` from the working tree and one from a baseline
+revision (``git archive`` of ``plugins/parsel-aep`` into a temporary folder, put first on
+``PYTHONPATH``). The requests alternate between the two workers, so a busy machine slows
+both alike; each request's CPU time is ``time.process_time`` inside its worker.
+
+For every request the program's JSON text, the rejected relations and the solver's
+counts (its stats without times) must be byte-for-byte the same in both; any difference
+is listed (with, for programs of the same ops, the largest difference of the amounts at
+the samples) and the exit status is 1.
+
+    python benchmarks/bench_aep_speed.py [--baseline REV] [--random 40] [--designer 40]
+        [--no-properties] [--save DIR] [--only LABEL-SUBSTRING]
+
+Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
+outputs, one JSON file per request).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import importlib.util
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "shapeassembly"
+PROPERTIES = ROOT / "plugins" / "parsel-aep" / "tests" / "test_properties.py"
+
+
+# -- the requests ----------------------------------------------------------------------
+
+def _properties_module():
+    spec = importlib.util.spec_from_file_location("_aep_properties", PROPERTIES)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def cases(random: int, designer: int, properties: bool, data: Path) -> list[dict]:
+    """``{label, spec, seed, breaks, options}`` for every request, in a fixed order."""
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from bench_aep import seeds_for
+    from designer_seeds import designer_seeds, sample_programs
+
+    from parsel_core.loading import load_shape
+
+    out: list[dict] = []
+    if random:
+        requests = []
+        for path in sample_programs(data, 100):
+            shape = load_shape(str(path))
+            requests += [(str(path), shape.name, seed) for seed in seeds_for(shape)]
+            if len(requests) >= random:
+                break
+        for i, (path, name, seed) in enumerate(requests[:random]):
+            out.append({"label": f"random-{i:03d}-{name}", "spec": path, "seed": seed, "breaks": [],
+                        "options": {"backend": "symengine"}})
+    if designer:
+        found = []
+        for path in sample_programs(data, 60, seed=1):
+            shape = load_shape(str(path))
+            found += [(str(path), shape.name, d) for d in designer_seeds(shape)]
+        step = max(1, len(found) // designer)
+        for i, (path, name, d) in enumerate(found[::step][:designer]):
+            out.append({"label": f"designer-{i:03d}-{name}-{d.kind}", "spec": path, "seed": d.seed,
+                        "breaks": list(d.breaks), "options": {"backend": "symengine"}})
+    if properties:
+        module = _properties_module()
+        for spec in module.SHAPES:
+            shape = load_shape(spec)
+            rng = np.random.default_rng(sum(map(ord, Path(spec).stem)))
+            for k in range(2):
+                out.append({"label": f"property-{Path(spec).stem}-{k}", "spec": spec,
+                            "seed": module.random_seed(shape, rng), "breaks": [], "options": {}})
+                rng.uniform(0.0, 1.0, 50)  # the test's fresh parameter values (same draws whatever the range)
+        for backend in ("symengine", "sympy"):
+            for spec in ["tiny_table", "shelf", str(module.FIXTURES / "chair" / "1277.txt")]:
+                shape = load_shape(spec)
+                rng = np.random.default_rng(sum(map(ord, Path(spec).stem + backend)))
+                for k in range(6):
+                    out.append({"label": f"family-{Path(spec).stem}-{backend}-{k}", "spec": spec,
+                                "seed": module.any_seed(shape, rng), "breaks": [], "options": {"backend": backend}})
+    return out
+
+
+# -- a worker: solves the requests it is sent ------------------------------------------
+
+def worker() -> None:
+    """Read one request (JSON) a line on stdin, answer one result (JSON) a line on stdout."""
+    answer = sys.stdout
+    sys.stdout = sys.stderr  # nothing the solver prints may reach the answers
+    import parsel_aep
+    from parsel_core.errors import ParselError
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+    from parsel_core.plugins import solvers
+    from parsel_core.program import Program
+
+    shapes: dict[str, object] = {}
+    aep = solvers()["aep"]
+    print(f"worker {os.getpid()}: parsel_aep from {Path(parsel_aep.__file__).parent}", file=sys.stderr)
+    for line in sys.stdin:
+        case = json.loads(line)
+        shape = shapes.get(case["spec"])
+        if shape is None:
+            shape = shapes[case["spec"]] = load_shape(case["spec"])
+        clock = time.process_time()
+        try:
+            request = SolveRequest(shape, Program.from_text(case["seed"]), breaks=tuple(case["breaks"]),
+                                   options=case["options"])
+            result = aep.run(request)
+        except ParselError as exc:
+            seconds = time.process_time() - clock
+            out = {"error": f"{type(exc).__name__}: {exc}"}
+        else:
+            seconds = time.process_time() - clock
+            stats = {k: v for k, v in result.stats.items() if k != "time_s"}
+            out = {"program": result.program.to_json(), "rejected": list(result.rejected),
+                   "stats": json.loads(json.dumps(stats, sort_keys=True, default=str))}
+        answer.write(json.dumps({"label": case["label"], "seconds": seconds, "result": out}) + "\n")
+        answer.flush()
+
+
+class Worker:
+    def __init__(self, name: str, pythonpath: str | None, extra: dict[str, str] | None = None) -> None:
+        env = {**os.environ, **(extra or {})}
+        if pythonpath:
+            env["PYTHONPATH"] = pythonpath + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        self.name = name
+        self.process = subprocess.Popen([sys.executable, __file__, "--worker"], stdin=subprocess.PIPE,
+                                        stdout=subprocess.PIPE, env=env, text=True, cwd=ROOT)
+
+    def solve(self, case: dict) -> dict:
+        self.process.stdin.write(json.dumps(case) + "\n")
+        self.process.stdin.flush()
+        line = self.process.stdout.readline()
+        if not line:
+            raise RuntimeError(f"worker {self.name} ended")
+        return json.loads(line)
+
+    def close(self) -> None:
+        self.process.stdin.close()
+        self.process.wait()
+
+
+def baseline_tree(revision: str, into: Path) -> str:
+    """``plugins/parsel-aep`` at ``revision``, extracted into ``into``; the folder to import from."""
+    archive = subprocess.run(["git", "archive", revision, "plugins/parsel-aep"], cwd=ROOT, check=True,
+                             capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    return str(into / "plugins" / "parsel-aep")
+
+
+# -- comparing ---------------------------------------------------------------------------
+
+def amount_difference(old: str, new: str) -> str:
+    """For two programs with the same ops and parameters: the largest difference of their
+    amounts at 101 samples of the range (else why they differ)."""
+    import numpy as np
+
+    from parsel_aep.derive import evaluate_amount
+    from parsel_core.program import Program
+
+    a, b = Program.from_json(old), Program.from_json(new)
+    if [(op.name, op.operand, op.feature) for op in a.ops] != [(op.name, op.operand, op.feature) for op in b.ops]:
+        return "different ops"
+    if a.parameters != b.parameters:
+        return "different parameters"
+    p = a.parameters[0]
+    xs = np.linspace(p.lo, p.hi, 101)
+    worst = 0.0
+    for x, y in zip(a.ops, b.ops):
+        pa = {k: v for k, v in x.params().items()}
+        pb = {k: v for k, v in y.params().items()}
+        for k in pa:
+            worst = max(worst, float(np.max(np.abs(np.asarray(pa[k], dtype=float) - np.asarray(pb[k], dtype=float))))
+                        if isinstance(pa[k], tuple) else 0.0)
+        worst = max(worst, float(np.max(np.abs(evaluate_amount(x.amount, p.name, xs)
+                                                - evaluate_amount(y.amount, p.name, xs)))))
+    return f"same ops, largest parameter/amount difference {worst:.3g}"
+
+
+def digest(result: dict) -> str:
+    return hashlib.sha256(json.dumps(result, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def percentile(times: list[float], q: float) -> float:
+    ordered = sorted(times)
+    return ordered[int(q * (len(ordered) - 1))]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--baseline", help="git revision to compare with (its plugins/parsel-aep)")
+    parser.add_argument("--random", type=int, default=40, help="first random-seed requests of bench_aep")
+    parser.add_argument("--designer", type=int, default=40, help="designer seeds, spread over the shapes")
+    parser.add_argument("--no-properties", action="store_true", help="leave out the property-test seeds")
+    parser.add_argument("--only", default="", help="only requests whose label contains this")
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
+                        help="an environment variable for the working tree's worker only (repeatable)")
+    parser.add_argument("--reference", type=Path,
+                        help="a --save folder of an earlier run: compare with its results, not a baseline's")
+    parser.add_argument("--save", type=Path, help="folder for every result (one JSON per request and side)")
+    args = parser.parse_args()
+    if args.worker:
+        worker()
+        return
+    todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
+    print(f"{len(todo)} requests", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        sides = [Worker("new", None, dict(item.split("=", 1) for item in args.env))]
+        if args.baseline:
+            sides.insert(0, Worker("old", baseline_tree(args.baseline, Path(tmp))))
+        times: dict[str, list[float]] = {w.name: [] for w in sides}
+        mismatches = []
+        if args.save:
+            args.save.mkdir(parents=True, exist_ok=True)
+        for i, case in enumerate(todo):
+            # alternate which side goes first, so neither always runs on a warmer machine
+            order = sides if i % 2 == 0 else sides[::-1]
+            answers = {w.name: w.solve(case) for w in order}
+            for name, answer in answers.items():
+                if name not in times:
+                    continue
+                times[name].append(answer["seconds"])
+                if args.save:
+                    path = args.save / f"{case['label'].replace('/', '_')}.{name}.json"
+                    path.write_text(json.dumps(answer["result"], indent=1, sort_keys=True))
+            if args.reference:
+                stem = args.reference / case["label"].replace("/", "_")
+                saved = next((p for p in (Path(f"{stem}.new.json"), Path(f"{stem}.old.json")) if p.exists()), None)
+                if saved is not None:
+                    answers["old"] = {"seconds": float("nan"), "result": json.loads(saved.read_text())}
+            line = "  ".join(f"{name} {answers[name]['seconds']:7.3f}s" for name in answers)
+            same = ""
+            if len(answers) == 2:
+                old, new = answers["old"]["result"], answers["new"]["result"]
+                if old == new:
+                    same = "same"
+                else:
+                    why = [k for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)]
+                    detail = ""
+                    if "program" in old and "program" in new and old["program"] != new["program"]:
+                        detail = amount_difference(old["program"], new["program"])
+                    same = f"DIFFERENT ({', '.join(why)}) {detail}"
+                    mismatches.append((case["label"], same))
+            print(f"{i:3d} {case['label']:<52} {line}  {digest(answers['new']['result'])}  {same}", flush=True)
+        for w in sides:
+            w.close()
+    print()
+    for name, t in times.items():
+        print(f"{name}: {len(t)} requests, CPU median {statistics.median(t):.3f} s, p95 {percentile(t, 0.95):.3f} s, "
+              f"max {max(t):.3f} s, total {sum(t):.1f} s")
+    if len(times) == 2 or args.reference:
+        print(f"identical: {len(todo) - len(mismatches)}/{len(todo)}")
+        for label, why in mismatches:
+            print(f"  {label}: {why}")
+        if mismatches:
+            sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

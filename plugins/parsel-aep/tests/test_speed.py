@@ -1,0 +1,385 @@
+"""The solver's fast paths give the same numbers, to the last bit, as the plain ones.
+
+Candidates are applied in batches (screening._apply_all), broken relations are looked up
+per pattern, per-relation maxima are taken by segments, candidate lists are cached and
+the joint pass remembers the systems it has solved; none of these may change a program
+(benchmarks/bench_aep_speed.py checks whole programs against a baseline revision).
+"""
+
+import numpy as np
+import pytest
+
+from parsel_aep import candidates, cluster, screening
+from parsel_core.hexahedron import EDGE_NAMES, FACE_NAMES, Hexahedron
+from parsel_core.ops import Rotate, Scale1D, Scale2D, Scale3D, Shear, Translate
+
+
+def skewed_box(rng) -> Hexahedron:
+    """A box turned about a random axis, with its corners jittered (not quite a box)."""
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    unit = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    corners = (unit * rng.uniform(0.05, 0.5, 3)) @ q + rng.normal(size=3)
+    return Hexahedron(corners + rng.normal(scale=1e-3, size=(8, 3)))
+
+
+def random_ops(rng, count: int) -> list:
+    out = []
+    for _ in range(count):
+        kind = int(rng.integers(6))
+        o = tuple(float(v) for v in rng.normal(size=3))
+        d = tuple(float(v) for v in rng.normal(size=3))
+        e = tuple(float(v) for v in np.cross(d, rng.normal(size=3)))
+        feature = [None, None, FACE_NAMES[int(rng.integers(6))], EDGE_NAMES[int(rng.integers(12))]][
+            int(rng.integers(4))]
+        if kind == 0:
+            out.append(Translate("p", "f", dir=d, feature=feature))
+        elif kind == 1:
+            out.append(Rotate("p", "f", origin=o, axis=d))
+        elif kind == 2:
+            out.append(Scale1D("p", "f", origin=o, dir=d, feature=feature if feature in FACE_NAMES else None))
+        elif kind == 3:
+            out.append(Scale2D("p", "f", origin=o, normal=d))
+        elif kind == 4:
+            out.append(Scale3D("p", "f", origin=o))
+        else:
+            out.append(Shear("p", "f", origin=o, normal=d, dir=e))
+    return out
+
+
+class Anchor:
+    """An op the batches do not know (like propagate.AnchorScale): applied on its own."""
+
+    name, feature, acts_on = "scale_1d", None, "part"
+
+    def apply(self, corners, amount, math):
+        return corners * (1 + amount)
+
+
+@pytest.mark.parametrize("amount", [1.0, 0.0, np.pi / 2, np.pi])
+@pytest.mark.parametrize("seed", range(4))
+def test_batched_application_is_bitwise_the_ops_own(seed, amount):
+    rng = np.random.default_rng(seed)
+    rest = skewed_box(rng).corners
+    ops = random_ops(rng, 60)
+    ops.insert(7, Anchor())
+    batched = screening._apply_all(ops, rest, amount)
+    plain = np.stack([op.apply(rest, amount, screening.NUMPY_MATH) for op in ops])
+    assert batched.shape == plain.shape
+    assert batched.tobytes() == plain.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_candidate_lists_are_the_same_built_lazily_and_cached(seed):
+    rng = np.random.default_rng(seed)
+    box = skewed_box(rng)
+    for hint in (None, "translate", "scale", "rotate"):
+        first = candidates.own_candidates("p", box, hint)
+        again = candidates.own_candidates("p", box, hint)
+        assert first == again and first is not again
+        # the merge of the original generator: every op built, the first of each key kept
+        assert first == reference_own_candidates("p", box, hint)
+
+
+def reference_own_candidates(part, hexahedron, hint):
+    """own_candidates as first written (every op constructed, then merged)."""
+    import itertools  # noqa: F401
+
+    from parsel_core.hexahedron import feature_corners
+
+    _key, _vec = candidates._key, candidates._vec
+    points = hexahedron.feature_points
+    dirs = candidates.directions(hexahedron)
+    out = {}
+
+    def add(key, op):
+        out.setdefault(key, op)
+
+    for d in dirs:
+        add(("translate", _key(d)), Translate(part, "f", dir=_vec(d)))
+    for n in dirs:
+        for p in points:
+            add(("scale_1d", _key(n), round(float(p @ n), 7)), Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
+            in_plane = p - (p @ n) * n
+            add(("scale_2d", _key(n), _key(in_plane)), Scale2D(part, "f", origin=_vec(p), normal=_vec(n)))
+            add(("rotate", _key(n), _key(in_plane)), Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
+        for d in dirs:
+            if abs(float(n @ d)) > 1e-6:
+                continue
+            for p in points:
+                add(("shear", _key(n), _key(d), round(float(p @ n), 7)),
+                    Shear(part, "f", origin=_vec(p), normal=_vec(n), dir=_vec(d)))
+    for p in points:
+        add(("scale_3d", _key(p)), Scale3D(part, "f", origin=_vec(p)))
+    corners = hexahedron.corners
+    for face in FACE_NAMES:
+        face_points = corners[list(feature_corners(face))]
+        normal = hexahedron.face_normal(face)
+        for d in dirs:
+            add(("face_translate", face, _key(d)), Translate(part, "f", feature=face, dir=_vec(d)))
+            if abs(float(d @ normal)) > 0.9:
+                continue
+            for p in np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)]):
+                add(("face_scale", face, _key(d), round(float(p @ d), 7)),
+                    Scale1D(part, "f", feature=face, origin=_vec(p), dir=_vec(d)))
+    for edge in EDGE_NAMES:
+        for d in dirs:
+            add(("edge_translate", edge, _key(d)), Translate(part, "f", feature=edge, dir=_vec(d)))
+    ops = list(out.values())
+    if hint in candidates.HINT_TYPES:
+        ops = [op for op in ops if candidates.candidate_family(op) in candidates.HINT_TYPES[hint]]
+    return ops
+
+
+def test_neighbour_candidates_merge_as_before():
+    rng = np.random.default_rng(5)
+    box, neighbours = skewed_box(rng), [skewed_box(rng), skewed_box(rng)]
+    got = candidates.neighbour_candidates("p", box, [], neighbours)
+    out = {}
+    for neighbour in neighbours:
+        for n in candidates.directions(neighbour):
+            for p in neighbour.feature_points:
+                for op in (Rotate("p", "f", origin=candidates._vec(p), axis=candidates._vec(n)),
+                           Scale1D("p", "f", origin=candidates._vec(p), dir=candidates._vec(n))):
+                    out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+            op = Translate("p", "f", dir=candidates._vec(n))
+            out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+        for p in neighbour.feature_points:
+            op = Scale3D("p", "f", origin=candidates._vec(p))
+            out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+    assert got == list(out.values())
+
+
+def test_broken_ids_of_every_candidate_at_once():
+    rng = np.random.default_rng(2)
+    errors = rng.uniform(0, 2e-4, (300, 9))
+    errors[5, 3] = np.nan
+    errors[6, 0] = np.inf
+    system = screening._System([f"r{i}" for i in range(9)], [], [], None, None, [], None, None,
+                               rest_errors=rng.uniform(0, 1.5e-4, 9))
+    got = screening._broken_ids_all(system, errors, 1e-4)
+    assert got == [screening._broken_ids(system, row, 1e-4) for row in errors]
+
+
+@pytest.mark.parametrize("sizes", [(3, 0, 5, 1, 0), (0, 0, 2), (4,), ()])
+def test_segment_maxima_are_the_slice_maxima(sizes):
+    rng = np.random.default_rng(len(sizes))
+    slices, start = [], 0
+    for size in sizes:
+        slices.append(slice(start, start + size))
+        start += size
+    values = rng.uniform(0, 1, start)
+    if start > 2:
+        values[1] = np.nan
+    got = cluster._slice_max(values, slices)
+    want = np.array([values[s].max(initial=0.0) for s in slices])
+    assert got.tobytes() == want.tobytes()
+
+
+def test_solver_reuses_a_system_it_has_solved():
+    rng = np.random.default_rng(0)
+    b, k = 12, 30
+    system = cluster.ClusterSystem(("p",), (), (slice(0, b),), (), (slice(0, k),), rng.normal(size=(5, k)),
+                                   rng.normal(size=(b, k)), rng.uniform(0.1, 1, b), np.ones(b), np.ones(1))
+    columns = np.arange(k)
+    rows = rng.uniform(0.5, 2, k)
+    first = cluster.solver(system, columns, rows)
+    again = cluster.solver(system, columns, rows.copy())
+    assert again is first and not first.flags.writeable
+    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
+                                                                  "slices", "r0", "slopes", "weights", "costs",
+                                                                  "allowances")))
+    assert cluster.solver(fresh, columns, rows).tobytes() == first.tobytes()
+    other = cluster.solver(system, columns, rows * 2)
+    assert other is not first
+
+
+# -- the joint pass decides with fast numerics and solves exactly --------------------------
+
+def random_system(rng, parts: int = 4, constraints: int = 14, samples: int = 5, rank_loss: int = 0,
+                  conflict: float = 0.0) -> "cluster.ClusterSystem":
+    """A joint system of ``parts`` boxes (6 basis amounts each) and ``constraints`` relations
+    of 1-3 residual columns; ``rank_loss`` basis amounts repeat others (a rank-deficient
+    system); ``conflict`` adds residuals no amount can meet (relations to give up)."""
+    b = 6 * parts
+    sizes = rng.integers(1, 4, constraints)
+    slices, start = [], 0
+    for size in sizes:
+        slices.append(slice(start, start + int(size)))
+        start += int(size)
+    k = start
+    slopes = rng.normal(size=(b, k)) * (rng.random((b, k)) < 0.4)
+    for i in range(rank_loss):
+        slopes[b - 1 - i] = slopes[i] * 0.5
+    x = np.linspace(0, 1, samples)[:, None]
+    f_true = rng.normal(size=(1, b)) * 0.1
+    r0 = -(x * f_true) @ slopes + conflict * x * rng.normal(size=(1, k)) * (rng.random(k) < 0.2)
+    allowances = np.full(constraints, 1e-3)
+    return cluster.ClusterSystem(tuple(f"p{i}" for i in range(parts)), (), tuple(slice(6 * i, 6 * i + 6)
+                                 for i in range(parts)), tuple(range(constraints)), tuple(slices), r0, slopes,
+                                 rng.uniform(0.01, 1, b), np.tile([2.0, 2.0, 2.0, 1.0, 1.0, 1.0], parts),
+                                 allowances)
+
+
+def exact_solve(system):
+    """solve() as first written: every decision on the exact solver."""
+    everything = list(range(len(system.constraints)))
+    best = None
+    for start in (everything, None):
+        if start is None:
+            start = cluster._sparse_breaks(system)
+        f, matrix, kept = cluster._drop_until_kept(system, start)
+        errors = cluster.relation_errors(system, f) / system.allowances
+        score = (-len(kept), float(np.sum(errors[errors >= 1.0])))
+        if best is None or score < best[0]:
+            best = (score, f, matrix, kept)
+        if len(kept) == len(everything):
+            break
+    _, f, matrix, kept = best
+    sparse = cluster.sparsify(system, kept, f)
+    if sparse is not None:
+        f, matrix = sparse
+    return f, matrix, kept
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_solve_with_fast_decisions_is_bitwise_the_exact_solve(seed):
+    rng = np.random.default_rng(seed)
+    system = random_system(rng, rank_loss=seed % 3, conflict=[0.0, 0.05, 1.0][seed % 3])
+    f, matrix, kept = cluster.solve(system)
+    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
+                                                                  "slices", "r0", "slopes", "weights", "costs",
+                                                                  "allowances")))
+    f0, matrix0, kept0 = exact_solve(fresh)
+    assert kept == kept0
+    assert matrix.tobytes() == matrix0.tobytes() and f.tobytes() == f0.tobytes()
+
+
+def test_fast_decisions_too_close_to_call_are_refused():
+    system = random_system(np.random.default_rng(3))
+    fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
+    values, limits = np.array([0.5, 1.0 - 1e-9]), np.array([1.0, 1.0])
+    assert list(exact.below(values, limits)) == [True, True]
+    with pytest.raises(cluster._Borderline):
+        fast.below(values, limits)
+    with pytest.raises(cluster._Borderline):
+        fast.below(np.array([np.nan]), 1.0)
+    assert fast.worst([(3.0, 0), (2.0, 1)]) == (3.0, 0)
+    with pytest.raises(cluster._Borderline):
+        fast.worst([(3.0, 0), (3.0 * (1 - 1e-9), 1)])
+    assert exact.worst([(3.0, 0), (3.0, 1)]) == (3.0, 1)
+    with pytest.raises(cluster._Borderline):
+        fast.less(1.0, 1.0 + 1e-12)
+
+
+@pytest.mark.parametrize("shape", [(40, 12), (12, 40), (30, 30), (1, 5), (5, 1)])
+@pytest.mark.parametrize("rank", [None, 1, 3])
+def test_guarded_lstsq_agrees_with_numpy_pinv(shape, rank):
+    rng = np.random.default_rng(sum(shape) * 10 + (rank or 0))
+    a = rng.normal(size=shape)
+    if rank is not None and rank < min(shape):  # rank-deficient: the minimum-norm solution
+        a = rng.normal(size=(shape[0], rank)) @ rng.normal(size=(rank, shape[1]))
+    b = rng.normal(size=(shape[0], 7))
+    got = cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
+    want = np.linalg.pinv(a, rcond=1e-9) @ b
+    assert np.allclose(got, want, rtol=1e-9, atol=1e-11 * np.abs(want).max())
+    zero = cluster._guarded_lstsq(np.zeros(shape), b, 1e-9, 1e-4)
+    assert zero.shape == (shape[1], 7) and not zero.any()
+    assert cluster._guarded_lstsq(np.zeros((0, 3)), np.zeros((0, 7)), 1e-9, 1e-4).shape == (3, 7)
+
+
+def test_guarded_lstsq_refuses_a_singular_value_at_the_cutoff():
+    rng = np.random.default_rng(1)
+    u, _ = np.linalg.qr(rng.normal(size=(8, 4)))
+    v, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+    b = rng.normal(size=(8, 3))
+    a = u @ np.diag([1.0, 0.5, 1e-3, 1e-9 * (1 + 1e-6)]) @ v.T
+    with pytest.raises(cluster._Borderline):
+        cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
+    a = u @ np.diag([1.0, 0.5, 1e-3, 1e-7]) @ v.T
+    assert np.allclose(cluster._guarded_lstsq(a, b, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9) @ b, rtol=1e-6)
+
+
+def test_fast_amounts_agree_with_the_exact_solver():
+    rng = np.random.default_rng(4)
+    system = random_system(rng, rank_loss=2)
+    fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
+    columns = np.arange(system.r0.shape[1])
+    rows = rng.uniform(0.5, 2.0, len(columns))
+    prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)  # some amounts left out
+    for args in ((columns,), (columns, rows), (columns, rows, prior), (columns[:9], rows[:9], prior)):
+        got, want = fast.amounts(*args), exact.amounts(*args)
+        assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+
+
+def reference_slopes(parts, hexahedra, rest, constraints, frame, shears, members):
+    """build_system's slopes as first written: every constraint evaluated for every part."""
+    def residuals(view):
+        blocks = [np.asarray(r.residual(view), dtype=float) for r in constraints]
+        lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
+        return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
+
+    involved = {m for r in constraints for m in r.members}
+    still = {m: rest[m][None] for m in involved}
+    base = residuals(still)[0]
+    out = []
+    for part in parts:
+        compound = cluster.box_compound(part, hexahedra[part], frame, shears)
+        targets = members.get(part, (part,))
+        moved = {m: np.stack([op.apply(rest[m], 1.0, np) for op in compound.basis]) for m in targets}
+        out.append(np.broadcast_to(residuals({**still, **moved}) - base, (compound.size, len(base))))
+    return np.concatenate(out)
+
+
+@pytest.mark.parametrize("frame, shears", [("local", False), ("world", True)])
+def test_joint_slopes_evaluate_only_the_constraints_a_part_moves(frame, shears):
+    from parsel_core.loading import load_shape
+
+    shape = load_shape("chair")
+    rest = shape.rest_corners()
+    parts = sorted(shape.parts)[:4]
+    constraints = [r for r in shape.relations.values() if set(r.members) & set(parts)]
+    corners = {m: np.broadcast_to(c, (3, 8, 3)) for m, c in rest.items()}
+    hexahedra = {p: shape.part(p).hexahedron for p in parts}
+    system = cluster.build_system(parts, hexahedra, rest, corners, constraints, 1e-4, frame, shears)
+    want = reference_slopes(parts, hexahedra, rest, constraints, frame, shears, {})
+    assert system.slopes.tobytes() == np.ascontiguousarray(want).tobytes()
+
+
+def reference_neighbour_candidates(part, hexahedron, neighbour_ops, neighbour_hexahedra):
+    """neighbour_candidates as first written (every op built, then merged)."""
+    _vec = candidates._vec
+    out = {}
+    centre = hexahedron.center
+
+    def add(op):
+        out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
+
+    for op in neighbour_ops:
+        params = dict(op.params())
+        add(type(op)(part, "f", **params))
+        origin = params.get("origin")
+        if origin is not None and op.name.startswith("scale"):
+            line = centre - np.asarray(origin)
+            if np.linalg.norm(line) > 1e-9:
+                add(Translate(part, "f", dir=_vec(line / np.linalg.norm(line))))
+    for neighbour in neighbour_hexahedra:
+        for n in candidates.directions(neighbour):
+            for p in neighbour.feature_points:
+                add(Rotate(part, "f", origin=_vec(p), axis=_vec(n)))
+                add(Scale1D(part, "f", origin=_vec(p), dir=_vec(n)))
+            add(Translate(part, "f", dir=_vec(n)))
+        for p in neighbour.feature_points:
+            add(Scale3D(part, "f", origin=_vec(p)))
+    return list(out.values())
+
+
+def test_neighbour_candidates_keep_the_borrowed_ops_first():
+    rng = np.random.default_rng(6)
+    box, neighbours = skewed_box(rng), [skewed_box(rng), skewed_box(rng)]
+    p = candidates._vec(neighbours[0].feature_points[3])
+    n = candidates._vec(candidates.directions(neighbours[0])[1])
+    borrowed = [Scale1D("n0", "x", origin=p, dir=n), Rotate("n0", "x", origin=p, axis=n)]
+    for ops in (borrowed, [], borrowed):  # computed, then cached
+        got = candidates.neighbour_candidates("p", box, ops, neighbours)
+        want = reference_neighbour_candidates("p", box, ops, neighbours)
+        assert got == want and [type(op) for op in got] == [type(op) for op in want]

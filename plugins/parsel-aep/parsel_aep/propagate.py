@@ -55,7 +55,7 @@ from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
 from parsel_core.ops import ChangeCount, EditOp, KeepFixed, Scale1D, Translate
 from parsel_core.plugins import get_cas_backend
-from parsel_core.program import Parameter, Program, evaluate, symbolic_corners
+from parsel_core.program import Parameter, Program, evaluate, laid_out_groups, symbolic_corners
 from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, TranslationSymmetry
 from parsel_core.report import check_program, relation_error, sliding_members, tolerance_for
 
@@ -629,6 +629,11 @@ class Propagation:
         if operand in self.shape.virtual_parents:  # a group is edited as a whole, never by a feature
             own = [op for op in own if op.feature is None]
         copies = self.copied_edits(state, operand, moving, hint) if self.options.nhbd else []
+        if not soft and self.options.nhbd and all(set(r.members) & sliding for r in constraints):
+            outright = self.row_edit(state, operand, moving, constraints, hint, sliding)
+            if outright is not None:
+                state.stats["nhbd_edits"] += 1
+                return outright, ()
         spanning = {id(op) for op in copies if self.spans(op, self.copy_sources[id(op)])}
         found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check,
                                      preferred={id(op) for op in copies}, spanning=spanning)
@@ -771,6 +776,31 @@ class Propagation:
                 out[key] = copy
                 self.copy_sources[id(copy)] = op.operand
         return list(out.values())
+
+    def row_edit(self, state: _State, operand: str, moving: Sequence[str], constraints: list[Relation],
+                 hint: str | None, sliding: set[str]) -> EditOp | None:
+        """A re-laid-out row's own op, amount and all, for a part that only touches the row.
+
+        The instances of a row laid out again keep their size and slide along what they
+        touch, so no equation in one amount holds for them exactly and the CAS has no closed
+        form to derive (the layout is discrete in the count). The rail on top of a row of
+        spindles that widens with the seat simply takes the row's scaling: accepted when
+        every contact then holds as a sliding contact.
+        """
+        groups = {g for m in sliding for g in self.shape.groups_of(m)} & laid_out_groups(self.program(state.ops))
+        for op in state.ops:
+            if op.operand not in groups or op.acts_on != "part" or op.feature is not None:
+                continue
+            try:
+                copy = type(op)(operand, op.amount, **op.params())
+            except Exception:  # an operator whose parameters do not fit another operand
+                continue
+            if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
+                continue
+            trial = self.corners(state.ops + [copy])
+            if all(self.holds(r, trial, sliding) for r in constraints):
+                return copy
+        return None
 
     def spans(self, copy: EditOp, source: str) -> bool:
         """Whether the part spans its neighbour along the directions a copied scaling stretches
@@ -964,8 +994,14 @@ class AnchorScale:
 
 
 def propagate(request: SolveRequest) -> SolveResult:
-    """Run AEP on a request (see :class:`Propagation`)."""
-    return Propagation(request).run()
+    """Run AEP on a request (see :class:`Propagation`).
+
+    BLAS runs on one thread throughout: the systems are small (at most a few hundred
+    rows), OpenBLAS's threads cost many times their work in CPU time on a busy machine,
+    and their rounding depends on the thread count, so one thread also makes the
+    program the same bits on every machine."""
+    with cluster_module.one_blas_thread():
+        return Propagation(request).run()
 
 
 def group_ids(shape: ShapeGraph) -> list[str]:

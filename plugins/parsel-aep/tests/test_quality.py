@@ -81,6 +81,23 @@ def test_chair_1277_widened_seat_stretches_the_back_bar_with_its_slats():
     assert result.rejected == []
 
 
+def test_a_rail_on_a_re_laid_out_row_of_spindles_takes_the_row_s_scaling():
+    """Spindles laid out again keep their width and slide under the rail, so the CAS has no
+    equation to solve for the rail; it takes the row's own scaling, and every spindle stays
+    under it at every sample."""
+    shape = load_shape(str(Path(__file__).parent / "fixtures" / "chair_42394.txt"))
+    seat = [float(v) for v in shape.parts["cube1"].hexahedron.center]
+    seed = f"scale_1d(cube1, origin=({seat[0]!r}, {seat[1]!r}, {seat[2]!r}), dir=(1, 0, 0), amount=0.5*x)"
+    result = propagate(SolveRequest(shape, Program.from_text(seed)))
+    report = check_program(shape, result.program, samples=41)
+    assert report.counts()["broken"] == 0, [r.id for r in report.relations if r.state == "broken"]
+    row = [op for op in result.program.ops if op.name == "scale_1d" and op.operand.startswith("translation")]
+    rail = [op for op in result.program.ops if op.operand == "Program_2/cube1"]
+    assert len(row) == 1 and [op.name for op in rail] == ["scale_1d"]
+    assert (rail[0].origin, rail[0].dir, rail[0].amount) == (row[0].origin, row[0].dir, row[0].amount)
+    assert result.rejected == []
+
+
 def test_legs_under_a_seat_widened_off_their_mirror_plane_stay_attached_and_mirrored():
     """A seat whose centre is off the legs' mirror plane: each leg moves by what keeps its
     contact, the pair stays mirrored about a plane that moved with the seat."""

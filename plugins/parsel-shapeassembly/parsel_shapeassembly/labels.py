@@ -31,16 +31,26 @@ def _area(lo: np.ndarray, hi: np.ndarray) -> float:
     return float(size[0] * size[2])
 
 
+def _footprint_overlap(lo: np.ndarray, hi: np.ndarray, other_lo: np.ndarray, other_hi: np.ndarray) -> float:
+    """The share of the box's footprint (x, z) that lies over the other box's footprint."""
+    width = np.clip(np.minimum(hi, other_hi) - np.maximum(lo, other_lo), 0.0, None)
+    return float(width[0] * width[2]) / max(_area(lo, hi), 1e-300)
+
+
 def label_chair(boxes) -> dict[str, str]:
     flat = [n for n, (lo, hi) in boxes.items() if _flat(lo, hi)]
     seat = max(flat or boxes, key=lambda n: (_area(*boxes[n]), n))
     seat_lo, seat_hi = boxes[seat]
     seat_centre = (seat_lo + seat_hi) / 2
+    thickness = seat_hi[1] - seat_lo[1]
     out = {}
     for name, (lo, hi) in boxes.items():
         centre = (lo + hi) / 2
         if name == seat:
             out[name] = "seat"
+        elif _flat(lo, hi) and lo[1] <= seat_hi[1] + thickness and hi[1] > seat_lo[1] and \
+                _footprint_overlap(lo, hi, seat_lo, seat_hi) > 0.5 and _area(lo, hi) > 0.25 * _area(seat_lo, seat_hi):
+            out[name] = "seat"  # a cushion lying on the seat, or a seat frame around it
         elif hi[1] <= seat_lo[1] + 0.25 * (seat_hi[1] - seat_lo[1]) + 1e-9 or centre[1] < seat_lo[1]:
             out[name] = "leg"
         elif centre[2] < seat_centre[2] - 0.25 * (seat_hi[2] - seat_lo[2]) and centre[1] > seat_hi[1]:

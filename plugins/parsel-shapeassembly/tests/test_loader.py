@@ -103,3 +103,24 @@ def test_loading_a_program_does_not_import_trimesh(chair):
             "print(sorted(m for m in ('trimesh', 'scipy', 'sympy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_a_cushion_on_the_seat_is_labelled_seat_and_the_panel_behind_it_back():
+    """PartNet seats are often a frame with a cushion on top; the cushion is flat, lies over
+    the seat's footprint and is no back (the rules put every part above the seat behind it
+    or among the backs)."""
+    from parsel_shapeassembly.labels import label_parts
+
+    def box(lo, hi):
+        bits = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], float)
+        return np.asarray(lo, float) + bits * (np.asarray(hi, float) - np.asarray(lo, float))
+
+    corners = {
+        "frame": box((-0.4, 0.40, -0.4), (0.4, 0.50, 0.4)),
+        "cushion": box((-0.37, 0.50, -0.35), (0.37, 0.58, 0.38)),
+        "back": box((-0.4, 0.50, -0.45), (0.4, 1.20, -0.40)),
+        "top_rail": box((-0.4, 1.20, -0.46), (0.4, 1.24, -0.39)),
+        "leg": box((-0.4, 0.0, -0.4), (-0.35, 0.40, -0.35)),
+    }
+    labels = label_parts("chair", corners)
+    assert labels == {"frame": "seat", "cushion": "seat", "back": "back", "top_rail": "back", "leg": "leg"}

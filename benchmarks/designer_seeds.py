@@ -4,8 +4,9 @@ Used by ``bench_aep.py`` (and usable on any labelled shape): for every shape it 
 the edits people ask of chairs, tables and storage furniture — widen or deepen the seat
 or top, lengthen or thicken the legs, raise or tilt the back, scale the top in 2D, move
 a shelf, add shelves — each as a seed program in the text form with the relations the
-request itself breaks (moving one shelf of an evenly spaced row breaks the row). The
-rules only read labels and boxes, so they cover every val-split shape.
+request itself breaks (moving one shelf of an evenly spaced row breaks the row; tilting a
+back that stands on the floor lifts it off). The rules only read labels, boxes and the
+detected groups and floor contacts, so they cover every val-split shape.
 """
 
 from __future__ import annotations
@@ -118,8 +119,12 @@ def designer_seeds(shape: ShapeGraph, centre: float | None = None) -> list[Desig
             # Tilt about the bottom edge, backwards (the back of a chair faces -z here or +z:
             # the axis follows from where the back sits relative to the seat).
             sign = 1.0 if back.hexahedron.center[2] < c[2] else -1.0
+            # A back that stands on the floor (a sofa's) leaves it when tilted: the request
+            # itself breaks that contact, as moving one shelf breaks its row.
+            floor = tuple(rid for rid, r in sorted(shape.relations.items())
+                          if r.kind == "ground" and tuple(r.members) == (back.id,))
             out.append(DesignerSeed("tilt-back", f"rotate({back.id!r}, origin={_point(bottom)}, "
-                                                 f"axis=({sign}, 0.0, 0.0), amount={a(0.25)})"))
+                                                 f"axis=({sign}, 0.0, 0.0), amount={a(0.25)})", floor))
     if category == "storage":
         sides = _with_label(shape, "side", "body")
         if sides:

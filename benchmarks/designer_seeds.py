@@ -116,14 +116,17 @@ def designer_seeds(shape: ShapeGraph, centre: float | None = None) -> list[Desig
             bottom = _bottom_centre(back)
             out.append(DesignerSeed("raise-back", f"scale_1d({back.id!r}, origin={_point(bottom)}, dir={Y}, "
                                                   f"amount={a(0.4)})"))
-            # Tilt about the bottom edge, backwards (the back of a chair faces -z here or +z:
-            # the axis follows from where the back sits relative to the seat).
-            sign = 1.0 if back.hexahedron.center[2] < c[2] else -1.0
+            # Recline: turn about the bottom edge on the seat's side, the top away from the
+            # seat (a back behind the seat, at -z, turns about -x: its top goes to -z).
+            behind = back.hexahedron.center[2] < c[2]
+            sign = -1.0 if behind else 1.0
+            zs = back.hexahedron.corners[:, 2]
+            edge = np.array([bottom[0], bottom[1], zs.max() if behind else zs.min()])
             # A back that stands on the floor (a sofa's) leaves it when tilted: the request
             # itself breaks that contact, as moving one shelf breaks its row.
             floor = tuple(rid for rid, r in sorted(shape.relations.items())
                           if r.kind == "ground" and tuple(r.members) == (back.id,))
-            out.append(DesignerSeed("tilt-back", f"rotate({back.id!r}, origin={_point(bottom)}, "
+            out.append(DesignerSeed("tilt-back", f"rotate({back.id!r}, origin={_point(edge)}, "
                                                  f"axis=({sign}, 0.0, 0.0), amount={a(0.25)})", floor))
     if category == "storage":
         sides = _with_label(shape, "side", "body")

@@ -383,3 +383,41 @@ def test_neighbour_candidates_keep_the_borrowed_ops_first():
         got = candidates.neighbour_candidates("p", box, ops, neighbours)
         want = reference_neighbour_candidates("p", box, ops, neighbours)
         assert got == want and [type(op) for op in got] == [type(op) for op in want]
+
+
+def test_the_least_breaking_edit_is_the_one_ranking_them_all_gives(monkeypatch):
+    """Breaking-edits are ranked lazily (only those near the least error); the choice must
+    be the one ranking every screened edit gives: the best ranked within 1% of the least
+    error among the edits that are not too distorting."""
+    from pathlib import Path
+
+    from parsel_aep.propagate import Propagation, propagate
+    from parsel_core import Program
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+
+    lazy = Propagation.least_breaking
+    compared = []
+
+    def both(self, results, rest):
+        ranked = self.rank(results, rest)
+        full = None
+        if ranked:
+            least = min(s.cost for s in ranked)
+            full = next(s for s in ranked if s.cost <= least * 1.01 + self.tolerance)
+        got = lazy(self, results, rest)
+        assert got is full
+        compared.append(len(results))
+        return got
+
+    monkeypatch.setattr(Propagation, "least_breaking", both)
+    fixtures = Path(__file__).parent / "fixtures"
+    for spec, seed in [
+        (fixtures / "chair_1746.txt",
+         "scale_1d('Program_1/cube0', origin=(0.0, -0.7, 0.0), dir=(0, 1, 0), amount=0.5*x)"),
+        (fixtures / "chair_2436.txt", "translate(cube1, dir=(0, 1, 0), amount=0.2*x)"),
+        (fixtures / "chair_42394.txt", "scale_1d(cube1, origin=(0.3, 0.0, 0.0), dir=(0, 0, 1), amount=x)"),
+    ]:
+        shape = load_shape(str(spec))
+        propagate(SolveRequest(shape, Program.from_text(seed)))
+    assert compared and max(compared) > 16  # several chunks of breaking-edits were ranked

@@ -22,7 +22,6 @@ cluster's edits only when the whole shape's error goes down.
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -31,6 +30,7 @@ import numpy as np
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import Compound, orthogonal_axes, translations
 from parsel_aep.screening import _Batch, residual_slices
+from parsel_core.blas import one_blas_thread
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
 
@@ -519,19 +519,3 @@ def _exact_amounts(system: ClusterSystem, kept: list[int]) -> np.ndarray:
     columns = _columns(system, kept)
     matrix = solver(system, columns, _row_weights(system, kept)) if kept else np.zeros((len(system.weights), 0))
     return _amounts(system, matrix, columns)
-
-
-_BLAS = None
-
-
-def one_blas_thread():
-    """A context in which BLAS runs on one thread (no limit without ``threadpoolctl``)."""
-    global _BLAS
-    if _BLAS is None:
-        try:
-            from threadpoolctl import ThreadpoolController
-
-            _BLAS = ThreadpoolController()
-        except ImportError:  # pragma: no cover - threadpoolctl is a dependency
-            _BLAS = False
-    return _BLAS.limit(limits=1, user_api="blas") if _BLAS else contextlib.nullcontext()

@@ -50,6 +50,7 @@ from parsel_aep.screening import Screened, compound_solver, residual_slices, scr
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
+from parsel_core.blas import one_blas_thread
 from parsel_core.errors import ParselError, UnknownPartError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
@@ -1028,7 +1029,7 @@ def propagate(request: SolveRequest) -> SolveResult:
     rows), OpenBLAS's threads cost many times their work in CPU time on a busy machine,
     and their rounding depends on the thread count, so one thread also makes the
     program the same bits on every machine."""
-    with cluster_module.one_blas_thread():
+    with one_blas_thread():
         return Propagation(request).run()
 
 

@@ -4,7 +4,7 @@ Each vertex is held by its 8 trilinear weights in the part's rest hexahedron
 (``parsel_core.cage.point_weights``), computed once per shape and part, so deforming is
 one ``(m, 8) @ (8, 3)`` product per part. Vertices outside the box (there are none for
 fitted boxes, but meshes may be edited) extrapolate the same map. The products run on one
-BLAS thread (:func:`one_blas_thread`): three columns wide, they gain little from OpenBLAS's
+BLAS thread (:func:`parsel_core.blas.one_blas_thread`): three columns wide, they gain little from OpenBLAS's
 threads on an idle machine, and those threads slow them down many times over as soon as
 other work shares the cores.
 
@@ -19,12 +19,12 @@ from __future__ import annotations
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import cache
 from typing import Any
 
 import numpy as np
 from numpy.typing import DTypeLike
 
+from parsel_core.blas import one_blas_thread
 from parsel_core.cage import point_weights
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
@@ -47,24 +47,6 @@ def part_mesh(shape: ShapeGraph, part_id: str) -> Any:
         raise ParselError(f"shape {shape.name!r}: part {part_id!r} has no mesh to deform "
                           f"(shapes read from hexahedra export with .hex.json)")
     return mesh
-
-
-@cache
-def _blas_controller():
-    from threadpoolctl import ThreadpoolController
-
-    return ThreadpoolController()  # finds the loaded BLAS libraries once per process
-
-
-def one_blas_thread():
-    """A context in which BLAS (numpy's OpenBLAS) runs on one thread.
-
-    Measured with ``benchmarks/bench_deform.py --vertices 437000`` on a shared 2-core
-    machine (docs/meshes.md): a step of float64 products took a median 14 ms on one
-    thread against 190-310 ms on OpenBLAS's default threads next to two busy processes;
-    entering the context costs about 10 microseconds.
-    """
-    return _blas_controller().limit(limits=1, user_api="blas")
 
 
 def cage_weights_of(shape: ShapeGraph, part_id: str) -> np.ndarray:

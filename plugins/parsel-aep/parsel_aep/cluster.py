@@ -29,7 +29,7 @@ import numpy as np
 
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import Compound, orthogonal_axes, translations
-from parsel_aep.screening import _Batch, residual_slices
+from parsel_aep.screening import _Batch, relation_max_errors, residual_slices
 from parsel_core.blas import one_blas_thread
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
@@ -184,22 +184,7 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
 
 def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
     """Largest |residual| over the samples, per constraint, for amounts ``f`` (S, B)."""
-    residual = np.abs(system.r0 + f @ system.slopes)
-    return _slice_max(residual.max(axis=0, initial=0.0), system.slices)
-
-
-def _slice_max(values: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
-    """``values[s].max(initial=0.0)`` for each of the consecutive ``slices`` (R,)."""
-    out = np.zeros(len(slices))
-    starts = np.array([s.start for s in slices], dtype=int)
-    filled = np.array([s.stop > s.start for s in slices], dtype=bool)
-    consecutive = all(a.stop == b.start for a, b in zip(slices, slices[1:])) and (
-        not slices or slices[-1].stop == len(values))
-    if not consecutive:
-        return np.array([values[s].max(initial=0.0) for s in slices])
-    if filled.any():
-        out[filled] = np.maximum.reduceat(values, starts[filled])
-    return out
+    return relation_max_errors(system.r0 + f @ system.slopes, system.slices)
 
 
 def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:

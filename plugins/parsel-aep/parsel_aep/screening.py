@@ -184,13 +184,24 @@ def _corner_indices(feature: str) -> tuple[int, ...]:
 
 def relation_max_errors(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
     """Max |residual| per relation: (..., R) from (..., S, K)."""
-    starts = [s.start for s in slices]
-    if (slices and starts[0] == 0 and slices[-1].stop == residual.shape[-1] and residual.shape[-2] > 0
-            and all(a.stop == b.start and a.stop > a.start for a, b in zip(slices, slices[1:]))
-            and slices[-1].stop > slices[-1].start):
-        # consecutive, non-empty slices: the largest over the samples, then over each slice
-        return np.maximum.reduceat(np.abs(residual).max(axis=-2), starts, axis=-1)
-    return np.stack([np.abs(residual[..., s]).max(axis=(-1, -2)) for s in slices], axis=-1)
+    return slice_maxima(np.abs(residual).max(axis=-2, initial=0.0), slices)
+
+
+def slice_maxima(values: np.ndarray, slices: Sequence[slice]) -> np.ndarray:
+    """``values[..., s].max(initial=0.0)`` for each of the ``slices`` (..., R): one segment
+    reduction when they are consecutive and cover the last axis (empty ones give 0)."""
+    out = np.zeros(values.shape[:-1] + (len(slices),))
+    consecutive = all(a.stop == b.start for a, b in zip(slices, slices[1:])) and (
+        not slices or (slices[0].start == 0 and slices[-1].stop == values.shape[-1]))
+    if not consecutive:
+        for i, s in enumerate(slices):
+            out[..., i] = values[..., s].max(axis=-1, initial=0.0)
+        return out
+    filled = np.array([s.stop > s.start for s in slices], dtype=bool)
+    if filled.any():
+        starts = np.array([s.start for s in slices], dtype=int)
+        out[..., filled] = np.maximum.reduceat(values, starts[filled], axis=-1)
+    return out
 
 
 def _max_abs_per_slice(residual: np.ndarray, slices: Sequence[slice]) -> np.ndarray:

@@ -170,7 +170,7 @@ def test_segment_maxima_are_the_slice_maxima(sizes):
     values = rng.uniform(0, 1, start)
     if start > 2:
         values[1] = np.nan
-    got = cluster._slice_max(values, slices)
+    got = screening.slice_maxima(values, slices)
     want = np.array([values[s].max(initial=0.0) for s in slices])
     assert got.tobytes() == want.tobytes()
 

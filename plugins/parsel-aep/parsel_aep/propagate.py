@@ -764,13 +764,8 @@ class Propagation:
         """
         out: dict[tuple, EditOp] = {}
         for op in self.neighbour_ops(state, moving):
-            if op.feature is not None:
-                continue
-            try:
-                copy = type(op)(operand, "f", **op.params())
-            except Exception:  # an operator whose parameters do not fit another operand
-                continue
-            if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
+            copy = _copied(op, operand, "f", hint)
+            if copy is None:
                 continue
             key = (copy.name, tuple(sorted(copy.params().items())))
             if key not in out:
@@ -790,13 +785,8 @@ class Propagation:
         """
         groups = {g for m in sliding for g in self.shape.groups_of(m)} & laid_out_groups(self.program(state.ops))
         for op in state.ops:
-            if op.operand not in groups or op.acts_on != "part" or op.feature is not None:
-                continue
-            try:
-                copy = type(op)(operand, op.amount, **op.params())
-            except Exception:  # an operator whose parameters do not fit another operand
-                continue
-            if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
+            copy = _copied(op, operand, op.amount, hint) if op.operand in groups and op.acts_on == "part" else None
+            if copy is None:
                 continue
             trial = self.corners(state.ops + [copy])
             if all(self.holds(r, trial, sliding) for r in constraints):
@@ -999,6 +989,20 @@ class Propagation:
     @staticmethod
     def _offset(screened: Screened, columns) -> np.ndarray:
         return screened.offset[columns]
+
+
+def _copied(op: EditOp, operand: str, amount: str, hint: str | None) -> EditOp | None:
+    """``op`` with its origin and direction on another operand, or ``None``: an op on a
+    feature, one whose parameters do not fit, or one the operand's type hint excludes."""
+    if op.feature is not None:
+        return None
+    try:
+        copy = type(op)(operand, amount, **op.params())
+    except Exception:  # an operator whose parameters do not fit another operand
+        return None
+    if hint in HINT_TYPES and candidate_family(copy) not in HINT_TYPES[hint]:
+        return None
+    return copy
 
 
 class AnchorScale:

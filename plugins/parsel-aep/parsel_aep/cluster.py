@@ -206,12 +206,13 @@ class _Numerics:
 
     The decisions of :func:`solve` (which constraints to drop, which amounts to leave out)
     are discrete, and its result is one last solve fixed by them. The decisions can be
-    made on one BLAS thread: OpenBLAS's threads make the SVD of a 500 x 200 system 20-50
-    times costlier in CPU time on a shared machine, and change its last bits. ``fast``
-    numerics raise :class:`_Borderline` whenever a decision is within ``MARGIN`` (relative)
-    of going the other way, or a singular value is near pinv's cutoff; that step is then
-    decided again with the exact solver (:attr:`exact`). The final solve is always the
-    exact one, so the result is the one the exact decisions give, bit for bit.
+    made with a cheaper solve: least squares on the live amounts only (no pseudo-inverse
+    of the whole system), on one BLAS thread, whose last bits differ from the exact
+    solver's. ``fast`` numerics raise :class:`_Borderline` whenever a decision is within
+    ``MARGIN`` (relative) of going the other way, or a singular value is near pinv's
+    cutoff; that step is then decided again with the exact solver (:attr:`exact`). The
+    final solve is always the exact one, so the result is the one the exact decisions
+    give, bit for bit.
     """
 
     #: Relative distance from a threshold that a fast decision must keep.

@@ -26,7 +26,7 @@ from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import corner_jacobians
 from parsel_core.ops import GroupOp
-from parsel_core.program import NUMPY_MATH, Follow, Parameter, Program, evaluate
+from parsel_core.program import NUMPY_MATH, Follow, Parameter, Program, evaluate, op_amounts
 
 #: Box corners are enumerated up to this many parameters (2**10 corners); beyond, random ones.
 MAX_CORNER_PARAMETERS = 10
@@ -254,7 +254,7 @@ def turns_parts(shape: ShapeGraph, layer: Program, samples: int = 3) -> bool:
     that each keep its relations, without a rigid motion to compose."""
     values = {p.name: np.linspace(p.lo, p.hi, samples + 1)[1:] for p in layer.parameters}
     rest = shape.rest_corners()
-    for op, amount in zip(layer.ops, _amounts(layer, values)):
+    for op, amount in zip(layer.ops, op_amounts(layer, values)):
         if op.acts_on != "part" or op.operand not in rest or op.feature is not None:
             continue
         moved = np.broadcast_to(op.apply(rest[op.operand], amount[..., None, None], NUMPY_MATH), (samples, 8, 3))
@@ -265,15 +265,6 @@ def turns_parts(shape: ShapeGraph, layer: Program, samples: int = 3) -> bool:
         if residual < 1e-9 and np.any(orthogonal & turned):
             return True
     return False
-
-
-def _amounts(program: Program, values: Mapping[str, np.ndarray]) -> list[np.ndarray]:
-    from parsel_core.expressions import numpy_functions, parse_expression
-
-    functions = numpy_functions()
-    batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
-    return [np.broadcast_to(np.asarray(parse_expression(op.amount).build(values, functions), dtype=float), batch)
-            for op in program.ops]
 
 
 def _motions(shape: ShapeGraph, layer: Program, samples: int) -> dict[str, np.ndarray]:

@@ -507,7 +507,11 @@ NUMPY_MATH = SimpleNamespace(sin=np.sin, cos=np.cos, sqrt=np.sqrt)
 
 def top_down_groups(program: Program) -> set[str]:
     """Groups the program lays out top-down: ops on their virtual parent move the anchors only."""
-    return {op.operand for op in program.ops if isinstance(op, GroupOp) and op.mode == "top_down"}
+    return _top_down(program.ops)
+
+
+def _top_down(ops: Sequence[EditOp]) -> set[str]:
+    return {op.operand for op in ops if isinstance(op, GroupOp) and op.mode == "top_down"}
 
 
 def anchor_groups(program: Program) -> list[set[str]]:
@@ -516,7 +520,7 @@ def anchor_groups(program: Program) -> list[set[str]]:
     not lay the group out itself, as it did when it was solved alone."""
     out: list[set[str]] = []
     for part in program.layer_slices:
-        groups = {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
+        groups = _top_down(program.ops[part])
         out.extend(groups for _ in program.ops[part])
     return out
 
@@ -545,10 +549,9 @@ def _run_part_ops(ops: Sequence[EditOp], shape: ShapeGraph, corners: dict[str, A
 
 def follow_weights(shape: ShapeGraph, follow: Follow) -> np.ndarray:
     """The cage coordinates (8,) of a Follow's point in its part at rest."""
-    from parsel_core.cage import cage_weights, inverse_trilinear
+    from parsel_core.cage import point_weights
 
-    rest = shape.rest_corners()[follow.part]
-    return cage_weights(inverse_trilinear(rest, np.asarray(follow.point, dtype=float)))[0]
+    return point_weights(shape.rest_corners()[follow.part], np.asarray([follow.point], dtype=float))[0]
 
 
 def _displacement(weights: np.ndarray, corners: Any, point: tuple[float, float, float]) -> Any:
@@ -573,14 +576,11 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
     rest = dict(corners)
     total = dict(corners)
     outer = set(program.outer)
-
-    def anchors_of(part: slice) -> set[str]:
-        return {op.operand for op in program.ops[part] if isinstance(op, GroupOp) and op.mode == "top_down"}
-
     for i, part in enumerate(slices):
         if i in outer:
             continue
-        layer = _run_part_ops(program.ops[part], shape, dict(rest), amounts[part], math_ns, anchors_of(part))
+        ops = program.ops[part]
+        layer = _run_part_ops(ops, shape, dict(rest), amounts[part], math_ns, _top_down(ops))
         for pid, moved in layer.items():
             if moved is not rest[pid]:
                 total[pid] = total[pid] + (moved - rest[pid])
@@ -590,7 +590,8 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
         shifts_of = {f: _displacement(follow_weights(shape, f), total[f.part], f.point)
                      for f in {follow_of[k] for k in range(part.start, part.stop) if k in follow_of}}
         shifts = [shifts_of[follow_of[k]] if k in follow_of else None for k in range(part.start, part.stop)]
-        total = _run_part_ops(program.ops[part], shape, total, amounts[part], math_ns, anchors_of(part), shifts)
+        ops = program.ops[part]
+        total = _run_part_ops(ops, shape, total, amounts[part], math_ns, _top_down(ops), shifts)
     return total
 
 
@@ -626,6 +627,16 @@ def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray]
     return instances, frozenset(removed)
 
 
+def op_amounts(program: Program, values: Mapping[str, Any]) -> list[np.ndarray]:
+    """Each op's amount at the parameter ``values`` (scalars or equal-shaped arrays), as
+    arrays of their common shape."""
+    functions = numpy_functions()
+    batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
+    arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
+    return [np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, functions), dtype=float), batch)
+            for op in program.ops]
+
+
 def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | None = None) -> Evaluation:
     """Reference numeric evaluation with numpy.
 
@@ -635,13 +646,8 @@ def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | No
     """
     program.validate(shape)
     values = program.values(values)
-    functions = numpy_functions()
     batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
-    arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
-    amounts = []
-    for op in program.ops:
-        amount = np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, functions), dtype=float), batch)
-        amounts.append(amount[..., None, None] if batch else float(amount))
+    amounts = [amount[..., None, None] if batch else float(amount) for amount in op_amounts(program, values)]
     corners = {pid: np.broadcast_to(c, batch + (8, 3)).copy() for pid, c in shape.rest_corners().items()}
     corners = _apply_part_ops(program, shape, corners, amounts, NUMPY_MATH)
     group_amounts = [a[..., 0, 0] if batch else a for a in amounts]

@@ -10,6 +10,7 @@ count (one solve) uses :func:`working`, which only says how long it has been run
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import time
 from typing import Any, TextIO
@@ -124,14 +125,6 @@ class _Working:
             self.stream.flush()
 
 
-class _NotWorking:
-    def __enter__(self) -> _NotWorking:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        pass
-
-
 def working(desc: str, *, enabled: bool = True, stream: TextIO | None = None, delay: float | None = None,
             every: float | None = None) -> Any:
     """A context manager for work with nothing to count (one solve, one evaluation): once it has
@@ -142,6 +135,6 @@ def working(desc: str, *, enabled: bool = True, stream: TextIO | None = None, de
     ``desc: done in 12.3 s`` at the end; nothing when the work ends before ``delay``.
     """
     if not enabled:
-        return _NotWorking()
+        return contextlib.nullcontext()
     stream = stream if stream is not None else sys.stderr
     return _Working(desc, stream, DELAY if delay is None else delay, EVERY if every is None else every)

@@ -25,8 +25,9 @@ def cage_weights(uvw: np.ndarray) -> np.ndarray:
 
 
 def _jacobian(corners: np.ndarray, uvw: np.ndarray) -> np.ndarray:
-    """d point / d (u, v, w) at cube points ``uvw`` (n, 3); returns (n, 3, 3)."""
-    u, v, w = (uvw[:, i:i + 1] for i in range(3))
+    """d point / d (u, v, w) at cube points ``uvw`` (..., n, 3) in cages (..., 8, 3); returns
+    (..., n, 3, 3)."""
+    u, v, w = (uvw[..., i:i + 1] for i in range(3))
     bits = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], dtype=float)
     sign = 2.0 * bits - 1.0
     fu = np.where(bits[:, 0] == 1, u, 1.0 - u)
@@ -36,7 +37,7 @@ def _jacobian(corners: np.ndarray, uvw: np.ndarray) -> np.ndarray:
     dv = sign[:, 1] * fu * fw
     dw = sign[:, 2] * fu * fv
     # columns: derivative along u, v, w
-    return np.stack([du @ corners, dv @ corners, dw @ corners], axis=2)
+    return np.stack([du @ corners, dv @ corners, dw @ corners], axis=-1)
 
 
 def inverse_trilinear(corners: np.ndarray, points: np.ndarray, iterations: int = 30) -> np.ndarray:
@@ -64,7 +65,7 @@ def inverse_trilinear(corners: np.ndarray, points: np.ndarray, iterations: int =
 def batched_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
     """:func:`inverse_trilinear` over a batch: cube coordinates (..., n, 3) of points (..., n, 3)
     in hexahedra (..., 8, 3); one affine solve per hexahedron, Newton only where it is not a
-    parallelepiped."""
+    parallelepiped (:func:`_batched_newton`, the same result bit for bit)."""
     corners = np.asarray(corners, dtype=float)
     points = np.asarray(points, dtype=float)
     origin = corners[..., 0, :]
@@ -72,8 +73,33 @@ def batched_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.ndar
                      axis=-1)                                                   # (..., 3, 3)
     uvw = np.linalg.solve(frame[..., None, :, :], (points - origin[..., None, :])[..., None])[..., 0]
     residual = np.abs(np.einsum("...nk,...kj->...nj", cage_weights(uvw), corners) - points).max(axis=(-1, -2))
-    for index in zip(*np.nonzero(residual > 1e-9)):
-        uvw[index] = inverse_trilinear(corners[index], points[index])
+    index = np.nonzero(residual > 1e-9)
+    if index[0].size:
+        uvw[index] = _batched_newton(corners[index], points[index])
+    return uvw
+
+
+def _batched_newton(corners: np.ndarray, points: np.ndarray, iterations: int = 30) -> np.ndarray:
+    """``np.stack([inverse_trilinear(c, p) for c, p in zip(corners, points)])`` for cages
+    (m, 8, 3) and points (m, n, 3), every step taken for all cages at once.
+
+    Each cage keeps its own stopping test, and every product and solve is the one
+    :func:`inverse_trilinear` makes for that cage alone (a stacked ``matmul`` and
+    ``solve`` work matrix by matrix), so the coordinates are the same to the last bit.
+    """
+    origin = corners[:, 0]
+    frame = np.stack([corners[:, 4] - origin, corners[:, 2] - origin, corners[:, 1] - origin], axis=2)
+    uvw = np.swapaxes(np.linalg.solve(frame, np.swapaxes(points - origin[:, None], 1, 2)), 1, 2)
+    active = np.arange(len(corners))
+    for _ in range(iterations):
+        cages, uv = corners[active], uvw[active]
+        residual = cage_weights(uv) @ cages - points[active]
+        going = ~(np.abs(residual).max(axis=(1, 2)) < 1e-13)  # NaN keeps stepping, as there
+        if not going.any():
+            break
+        active, cages, uv, residual = active[going], cages[going], uv[going], residual[going]
+        step = np.linalg.solve(_jacobian(cages, uv), residual[..., None])[..., 0]
+        uvw[active] = uv - step
     return uvw
 
 

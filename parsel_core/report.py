@@ -85,14 +85,17 @@ class RelationReport:
         return {**data, "counts": self.counts(), "relations": [r.to_dict() for r in self.relations], **self.extra}
 
 
-def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str) -> np.ndarray:
+def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str, strict: bool = False
+                  ) -> np.ndarray:
     """How far a laid-out group member's contact slid *off* the other part, per sample.
 
     When a group's count or spacing changes, its instances sit at new places along the
     part they rest on (boards along a side panel, slats along a rail), so the contact
     cannot stay at fixed cage coordinates of that part. It must stay on the same face:
     the contact point keeps the other part's cage coordinates that were on its boundary
-    (0 or 1) and stays within [0, 1] in the others. Errors are in world units.
+    (0 or 1) and stays within [0, 1] in the others. Errors are in world units. A
+    degenerate cage makes every error infinite, or with ``strict`` raises
+    ``LinAlgError``.
     """
     a, b = relation.members
     own_weights, other_weights = (relation.weights_a, relation.weights_b) if member == a else (
@@ -114,6 +117,8 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     try:
         uvw = batched_cube_coordinates(target, points)
     except np.linalg.LinAlgError:  # a degenerate cage: the contact cannot be located
+        if strict:
+            raise
         errors[present] = np.inf
         return errors
     extents = np.linalg.norm(np.stack([target[:, 4] - target[:, 0], target[:, 2] - target[:, 0],
@@ -152,6 +157,57 @@ def relation_error(relation: Relation, corners: Mapping[str, np.ndarray], slidin
     errors = np.asarray(sample_errors(relation, corners, sliding), dtype=float)
     errors = errors[~np.isnan(errors)]
     return float(errors.max()) if errors.size else 0.0
+
+
+def batch_relation_errors(relation: Relation, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()
+                          ) -> np.ndarray:
+    """:func:`relation_error` of every row of a batch, (C,): corners of shape (C, S, 8, 3)
+    (C alternatives, such as candidate edits, each at S samples) or (S, 8, 3) (the same in
+    every row), in one evaluation with the rules of :func:`sample_errors` applied row by
+    row. Values may differ from the row-by-row ones in the last bits (batched products):
+    callers comparing them with a threshold re-check near-ties row by row."""
+    sliding = set(sliding)
+    rows = max(np.shape(corners[m])[0] for m in relation.members if np.ndim(corners[m]) == 4)
+    exact = _rows(relation.error(corners), rows)
+    slid = [m for m in relation.members if m in sliding] if isinstance(relation, Attachment) else []
+    if slid:
+        slide = np.max([_sliding_error_rows(relation, corners, m, rows) for m in slid], axis=0)
+        return _largest(np.where(np.isnan(exact), slide, np.fmin(exact, slide)))
+    largest = _largest(exact)
+    if not (isinstance(relation, Attachment) and relation.contact == "face" and np.any(largest > 0)):
+        return largest
+    slides = [_sliding_error_rows(relation, corners, m, rows) for m in relation.members]
+    worst = [s.max(axis=-1) for s in slides]  # NaN where a sample is NaN, as np.max
+    best = np.zeros(rows, dtype=int)
+    for i in range(1, len(slides)):  # min(range(k), key=...): the first of the least
+        best = np.where(worst[i] < np.choose(best, worst), i, best)
+    use = (largest > 0) & (np.choose(best, worst) < largest)
+    chosen = np.choose(best[:, None], slides)
+    return np.where(use, _largest(chosen), largest)
+
+
+def _rows(values, rows: int) -> np.ndarray:
+    """Per-sample values as (rows, S)."""
+    values = np.asarray(values, dtype=float)
+    return np.broadcast_to(values, (rows, values.shape[-1]))
+
+
+def _largest(errors: np.ndarray) -> np.ndarray:
+    """The largest value of each row that is not NaN (0 where every value is NaN)."""
+    missing = np.isnan(errors)
+    return np.where(missing.all(axis=-1), 0.0, np.where(missing, -np.inf, errors).max(axis=-1))
+
+
+def _sliding_error_rows(relation: Attachment, corners: Mapping[str, np.ndarray], member: str, rows: int
+                        ) -> np.ndarray:
+    """:func:`sliding_error` of a batch, (rows, S); a degenerate cage makes only its own
+    row infinite (for the whole batch at once it would make every row so)."""
+    try:
+        return _rows(sliding_error(relation, corners, member, strict=True), rows)
+    except np.linalg.LinAlgError:
+        return np.stack([np.asarray(sliding_error(relation, {m: c[row] if np.ndim(c) == 4 else c
+                                                            for m, c in corners.items()}, member), dtype=float)
+                         for row in range(rows)])
 
 
 def relation_errors(shape: ShapeGraph, corners: Mapping[str, np.ndarray], sliding: Iterable[str] = ()

@@ -125,3 +125,21 @@ def test_corner_jacobians_of_boxes_mirrors_and_folds():
     assert jacobians[7] == pytest.approx(1.0 * -1.0 * 3.0) and np.all(jacobians[:3] > 0)
     # batched: (samples, 8, 3) -> (samples, 8)
     assert corner_jacobians(np.stack([box.corners, mirrored.corners])).shape == (2, 8)
+
+
+def test_batched_cube_coordinates_are_those_of_one_cage_at_a_time_to_the_last_bit():
+    """Newton steps taken for many tapered cages at once give each cage's own result."""
+    from parsel_core.cage import batched_cube_coordinates
+
+    rng = np.random.default_rng(3)
+    cube = np.array([[(k >> 2) & 1, (k >> 1) & 1, k & 1] for k in range(8)], dtype=float)
+    corners = cube * rng.uniform(0.5, 2.0, (6, 5, 1, 3)) + rng.normal(0, 0.04, (6, 5, 8, 3))
+    corners[0, 0] = cube  # a box: the affine solve is exact, no Newton step
+    points = rng.uniform(0.0, 1.0, (6, 5, 4, 3))
+    got = batched_cube_coordinates(corners, points)
+    for index in np.ndindex(6, 5):
+        one = batched_cube_coordinates(corners[index][None], points[index][None])[0]
+        assert np.array_equal(got[index], one)
+        if index != (0, 0):  # a taper: Newton ran, as inverse_trilinear alone runs it
+            assert np.array_equal(got[index], inverse_trilinear(corners[index], points[index]))
+    assert np.allclose(np.einsum("...nk,...kj->...nj", cage_weights(got), corners), points, atol=1e-10)

@@ -227,3 +227,38 @@ def test_a_point_contact_does_not_slide():
     shape = _board_on_panel("point")
     program = Program.from_text("param x in [0, 0.5]\ntranslate(board, dir=(0, 1, 0), amount=0.1*x)")
     assert check_program(shape, program).counts()["broken"] == 1
+
+
+def _rows_of_moves(rest: np.ndarray, rng, count: int = 24, samples: int = 5) -> np.ndarray:
+    """Candidate corners (count, samples, 8, 3): slides, pulls, stretches and tapers of ``rest``."""
+    moves = []
+    for _ in range(count):
+        shift = rng.normal(0, 0.3, 3) * np.linspace(0, 1, samples)[:, None]
+        stretch = 1 + rng.normal(0, 0.2, 3) * np.linspace(0, 1, samples)[:, None]
+        corners = rest[None] * stretch[:, None] + shift[:, None]
+        corners[:, [2, 3, 6, 7]] += rng.normal(0, 0.02, 3) * rng.integers(0, 2)  # sometimes a taper
+        moves.append(corners)
+    return np.stack(moves)
+
+
+@pytest.mark.parametrize("kind", ["face", "point"])
+def test_batched_relation_errors_are_each_rows_own(kind):
+    """One evaluation for many candidate moves gives what each move alone gives, for contacts
+    that may slide (faces) and ones that may not, with and without a laid-out member."""
+    from parsel_core.report import batch_relation_errors, relation_error
+
+    shape = _board_on_panel(kind)
+    relation = shape.relation("contact")
+    rest = shape.rest_corners()
+    rng = np.random.default_rng(7)
+    moved = _rows_of_moves(rest["board"], rng)
+    moved[3, 2] = np.nan  # a removed instance at one sample: not checked there
+    moved[5, 1, :] = moved[5, 1, 0]  # a degenerate cage at one sample
+    panel = np.broadcast_to(rest["panel"], (5, 8, 3))
+    for sliding in ((), ("board",)):
+        batch = batch_relation_errors(relation, {"board": moved, "panel": panel}, sliding)
+        one = [relation_error(relation, {"board": m, "panel": panel}, sliding) for m in moved]
+        assert batch.shape == (len(moved),)
+        assert np.allclose(batch, one, rtol=1e-12, atol=1e-15)
+        assert np.isfinite(batch[0])
+    assert np.ptp(one) > 0.1  # some moves keep the contact, others break it badly

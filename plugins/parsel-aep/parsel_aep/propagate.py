@@ -58,7 +58,7 @@ from parsel_core.ops import ChangeCount, EditOp, KeepFixed, Scale1D, Translate
 from parsel_core.plugins import get_cas_backend
 from parsel_core.program import Parameter, Program, evaluate, laid_out_groups, symbolic_corners
 from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, TranslationSymmetry
-from parsel_core.report import check_program, relation_error, sliding_members, tolerance_for
+from parsel_core.report import batch_relation_errors, check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
@@ -806,18 +806,51 @@ class Propagation:
         return all(np.ptp(mine @ d) >= 0.5 * np.ptp(theirs @ d) for d in directions)
 
     def sliding_check(self, corners, rest, soft: list[Relation], sliding: set[str]):
-        """A test that a screened candidate also keeps the sliding contacts ``soft``."""
+        """A function giving the first of some ranked screened candidates that also keeps the
+        sliding contacts ``soft`` (``None`` if none does), or ``None`` without such contacts.
+
+        Candidates are checked in batches of growing size (1, 4, 16, ...), one evaluation of
+        every contact per batch; an error within a relative 1e-9 of its allowance is
+        checked again for that candidate alone, so the choice is that of checking one
+        candidate after another."""
         if not soft:
             return None
 
-        def keeps(screened: Screened) -> bool:
-            amounts = screened.f if screened.kind == "compound" else screened.f[:, None, None]
-            trial = dict(corners)
+        def trial(chunk: Sequence[Screened]) -> dict[str, np.ndarray]:
+            out = dict(corners)
             for pid, c in rest.items():
-                trial[pid] = screened.op.apply(c, amounts, np)
-            return all(self.holds(r, trial, sliding) for r in soft)
+                out[pid] = np.stack([s.op.apply(c, s.f if s.kind == "compound" else s.f[:, None, None], np)
+                                     for s in chunk])
+            return out
 
-        return keeps
+        def keeps(chunk: Sequence[Screened]) -> np.ndarray:
+            moved = trial(chunk)
+            kept = np.ones(len(chunk), dtype=bool)
+            for r in soft:
+                alive = np.flatnonzero(kept)
+                if not alive.size:
+                    break
+                rows = {m: moved[m][alive] if m in rest else moved[m] for m in r.members}
+                errors = batch_relation_errors(r, rows, sliding)
+                allowed = r.allowance(self.tolerance)
+                holds = errors < allowed
+                for i in np.flatnonzero(np.abs(errors - allowed) <= 1e-9 * allowed):
+                    one = {m: c[i] if m in rest else c for m, c in rows.items()}
+                    holds[i] = self.holds(r, one, sliding)
+                kept[alive] = holds
+            return kept
+
+        def first_keeping(ranked: Sequence[Screened]) -> Screened | None:
+            start, size = 0, 1
+            while start < len(ranked):
+                chunk = ranked[start:start + size]
+                hit = np.flatnonzero(keeps(chunk))
+                if hit.size:
+                    return chunk[int(hit[0])]
+                start, size = start + size, size * 4
+            return None
+
+        return first_keeping
 
     def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
                         breaking: bool = False, check=None, preferred: set[int] = frozenset(),
@@ -839,10 +872,9 @@ class Propagation:
             state.stats["candidates_valid"] += len(pool)
         if not pool:
             return None
-        for best in self.rank(pool, rest, preferred, spanning):
-            if check is None or breaking or check(best):
-                return best, best.broken
-        return None
+        ranked = self.rank(pool, rest, preferred, spanning)
+        best = check(ranked) if check is not None else ranked[0] if ranked else None
+        return (best, best.broken) if best is not None else None
 
     def least_breaking(self, results: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened | None:
         """The breaking-edit to take: the best ranked (:meth:`rank`) of those whose total error

@@ -46,7 +46,7 @@ from parsel_aep.derive import (
     simpler_equivalent,
     symbolic_residual,
 )
-from parsel_aep.screening import Screened, compound_solver, residual_slices, screen
+from parsel_aep.screening import Screened, ScreenTable, compound_solver, residual_slices, screen, screen_table
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
@@ -856,39 +856,39 @@ class Propagation:
                         breaking: bool = False, check=None, preferred: set[int] = frozenset(),
                         spanning: set[int] = frozenset()) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
-        results = screen(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
+        table = screen_table(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         state.stats["candidates_screened"] += len(candidates)
         if breaking:
             # The edit that breaks the constraints least, by the size of the errors it
             # leaves, not their number: a stretch that misses six contacts by 0.001 beats a
             # slide that tears three off by 0.9.
-            currently = len(constraints)
-            results = [s for s in results if len(s.broken) < currently and np.isfinite(s.cost)]
-            best = self.least_breaking(results, rest)
+            rows = table.order[(table.nbroken[table.order] < len(constraints)) & np.isfinite(table.cost[table.order])]
+            best = self.least_breaking(table, rows, rest)
             return (best, best.broken) if best is not None else None
-        else:
-            pool = [s for s in results if not s.broken]
-            state.stats["candidates_valid"] += len(pool)
+        pool = [table.screened(i) for i in table.order[table.nbroken[table.order] == 0]]
+        state.stats["candidates_valid"] += len(pool)
         if not pool:
             return None
         ranked = self.rank(pool, rest, preferred, spanning)
         best = check(ranked) if check is not None else ranked[0] if ranked else None
         return (best, best.broken) if best is not None else None
 
-    def least_breaking(self, results: list[Screened], rest: Mapping[str, np.ndarray]) -> Screened | None:
-        """The breaking-edit to take: the best ranked (:meth:`rank`) of those whose total error
-        is within 1% of the least among the edits that are not too distorting.
+    def least_breaking(self, table: ScreenTable, rows: np.ndarray, rest: Mapping[str, np.ndarray]
+                       ) -> Screened | None:
+        """The breaking-edit to take among the screened ``rows`` of ``table``: the best ranked
+        (:meth:`rank`) of those whose total error is within 1% of the least among the edits
+        that are not too distorting.
 
         Breaking-edits come one per candidate and constraint, thousands of them; only those
         near the least error need ranking, so energies are computed in order of error
         until the first acceptable one fixes that least error (the same choice as ranking
         them all)."""
-        pool = [s for s in results if np.all(np.isfinite(s.f))]
-        order = sorted(range(len(pool)), key=lambda i: pool[i].cost)
+        pool = rows[table.finite[rows]]
+        order = pool[np.argsort(table.cost[pool], kind="stable")]
         least = None
         for start in range(0, len(order), 16):
-            chunk = [pool[i] for i in order[start:start + 16]]
+            chunk = [table.screened(i) for i in order[start:start + 16]]
             energy, _ = self._distortion(chunk, rest, planes=False)
             acceptable = np.flatnonzero(~(energy > HIGH_DISTORTION))
             if acceptable.size:
@@ -896,7 +896,8 @@ class Propagation:
                 break
         if least is None:
             return None
-        ranked = self.rank([s for s in pool if s.cost <= least * 1.01 + self.tolerance], rest)
+        near = pool[table.cost[pool] <= least * 1.01 + self.tolerance]
+        ranked = self.rank([table.screened(i) for i in near], rest)
         return ranked[0] if ranked else None
 
     @staticmethod

@@ -17,7 +17,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache, cached_property
-from operator import attrgetter
 from types import SimpleNamespace
 
 import numpy as np
@@ -270,15 +269,6 @@ def _affine_amounts(r0: np.ndarray, slope: np.ndarray, columns) -> tuple[np.ndar
     return f, usable
 
 
-def _rotation_amounts(system: _System, n: int, columns) -> np.ndarray | None:
-    m = system.matrix[n][columns]
-    if np.abs(m).max() < 1e-12:
-        return None
-    gamma = system.r0[:, columns] - system.offset[n][columns]
-    cs = -np.linalg.lstsq(m, gamma.T, rcond=None)[0]
-    return np.arctan2(cs[1], cs[0])
-
-
 def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.ndarray]:
     """Angles (N, S) minimising ``|A c + B s + gamma|`` (normal equations, then normalised)."""
     m = system.matrix[:, columns]                                                        # (N, K, 2)
@@ -292,37 +282,17 @@ def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.nd
     return np.arctan2(cs[:, 1], cs[:, 0]), usable
 
 
-def _broken_ids(system: _System, errors: np.ndarray, tolerance: float) -> tuple[str, ...]:
-    """Constraints whose largest error reaches their allowance (relations.Relation.allowance)."""
-    allowed = np.maximum(tolerance, system.rest_errors)
-    return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
-
-
-def _broken_ids_all(system: _System, errors: np.ndarray, tolerance: float) -> list[tuple[str, ...]]:
-    """:func:`_broken_ids` of every row of ``errors`` (N, R); rows with the same broken
-    constraints share one tuple."""
-    allowed = np.maximum(tolerance, system.rest_errors)
-    broken = ~(errors < allowed)
-    keys = np.packbits(broken, axis=-1)
-    known: dict[bytes, tuple[str, ...]] = {}
-    out = []
-    for row, key in zip(broken, keys):
-        key = key.tobytes()
-        ids = known.get(key)
-        if ids is None:
-            ids = known[key] = tuple(system.ids[i] for i in np.flatnonzero(row))
-        out.append(ids)
-    return out
-
-
-def _rotation_residual(system: _System, n: int, f: np.ndarray) -> np.ndarray:
-    gamma = system.r0 - system.offset[n]
-    return (system.matrix[n] @ np.stack([np.cos(f), np.sin(f)])).T + gamma
-
-
 def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
            constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False) -> list[Screened]:
-    """Best amounts and leftover broken relations for every candidate.
+    """Best amounts and leftover broken relations for every candidate, in order
+    (:func:`screen_table`, every row made a :class:`Screened`)."""
+    table = screen_table(candidates, moving, others, constraints, tolerance, per_constraint)
+    return [table.screened(i) for i in table.order]
+
+
+def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
+                 constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False) -> ScreenTable:
+    """Best amounts and leftover broken relations for every candidate, as arrays.
 
     ``moving``: rest corners (8, 3) of the parts the candidate moves (one part, or all
     members of a group edited through its virtual parent); ``others``: corners (S, 8, 3)
@@ -331,21 +301,20 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
     constraint alone and tried against all of them, giving one result per pair.
     """
     if not candidates or not constraints:
-        return []
+        return ScreenTable(None, [], per_constraint)
     system = _system(candidates, moving, others, constraints)
+    allowed = np.maximum(tolerance, system.rest_errors)
     everything = slice(None)
     column_sets = system.slices if per_constraint else [everything]
-    results: list[Screened] = []
+    blocks: list[_Block] = []
     for columns in column_sets:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
             residual = f[:, :, None] * system.slope[:, None, :]
             residual += system.r0                                                      # r0 + f a, in place
             errors = _max_abs_per_slice(residual, system.slices)
-            broken = _broken_ids_all(system, errors, tolerance)
-            for n in np.flatnonzero(usable):
-                index, op = system.affine[n]
-                results.append(Screened(op, index, f[n], broken[n], "affine", system.slope[n], system.r0, errors[n]))
+            rows = np.flatnonzero(usable)
+            blocks.append(_Block("affine", rows, rows, f, errors, ~(errors < allowed)))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
@@ -353,24 +322,83 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
             residual += system.r0                                                      # (A c + B s + r0) - A
             residual -= system.offset[:, None, :]
             errors = _max_abs_per_slice(residual, system.slices)
-            broken = _broken_ids_all(system, errors, tolerance)
-            for n in np.flatnonzero(usable):
-                index, op = system.rotations[n]
-                results.append(Screened(op, index, f_all[n], broken[n], "rotation", system.matrix[n],
-                                        system.offset[n], errors[n]))
-        for index, compound, slopes in system.compounds or ():
+            rows = np.flatnonzero(usable)
+            blocks.append(_Block("rotation", rows, rows, f_all, errors, ~(errors < allowed)))
+        for j, (_, _, slopes) in enumerate(system.compounds or ()):
             f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
             residual = system.r0 + f @ slopes
-            errors = relation_max_errors(residual[None], system.slices)[0]
-            if not np.all(np.isfinite(errors)):
-                continue
-            broken = _broken_ids(system, errors, tolerance)
-            results.append(Screened(compound, index, f, broken, "compound", slopes, system.r0, errors))
-    if per_constraint:  # a candidate appears once per constraint: fewest broken first
-        results.sort(key=lambda s: (s.index, len(s.broken)))
-    else:  # each candidate once: its index alone orders it
-        results.sort(key=attrgetter("index"))
-    return results
+            errors = relation_max_errors(residual[None], system.slices)
+            if np.all(np.isfinite(errors)):
+                blocks.append(_Block("compound", np.zeros(1, dtype=int), np.array([j]), f[None], errors,
+                                     ~(errors < allowed)))
+    return ScreenTable(system, blocks, per_constraint)
+
+
+@dataclass
+class _Block:
+    """Screened rows of one kind solved from one set of residual columns."""
+
+    kind: str
+    rows: np.ndarray     # the rows below that are results (usable amounts)
+    sources: np.ndarray  # their candidates: rows of the system's affine, rotations or compounds
+    f: np.ndarray        # (N, S) amounts; compound: (1, S, B)
+    errors: np.ndarray   # (N, R) largest error of each constraint
+    broken: np.ndarray   # (N, R) whether it reaches its allowance
+
+
+class ScreenTable:
+    """Every screened result of one :func:`screen_table` call as arrays, in the order of
+    :attr:`order`: by candidate, and per candidate (breaking-edits) fewest broken first.
+    :class:`Screened` objects are made only for the rows asked for (:meth:`screened`):
+    breaking-edits come one per candidate and constraint, thousands of them, and a
+    search reads a few."""
+
+    def __init__(self, system: _System | None, blocks: list[_Block], per_constraint: bool) -> None:
+        self.system, self.blocks = system, blocks
+        self._made: dict[int, Screened] = {}
+        self.block = np.concatenate([np.full(len(b.rows), i) for i, b in enumerate(blocks)] or [np.zeros(0, int)])
+        self.row = np.concatenate([b.rows for b in blocks] or [np.zeros(0, int)]).astype(int)
+        if system is not None:
+            first = {"affine": np.array([i for i, _ in system.affine], dtype=int),
+                     "rotation": np.array([i for i, _ in system.rotations], dtype=int),
+                     "compound": np.array([i for i, _, _ in system.compounds or ()], dtype=int)}
+        self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [np.zeros(0, int)]).astype(int)
+        nbroken, cost, finite = [], [], []
+        for b in blocks:
+            broken, errors = b.broken[b.rows], b.errors[b.rows]
+            nbroken.append(broken.sum(axis=-1))
+            # Screened.cost, row by row the same sums (numpy sums each contiguous row alike)
+            whole = np.isfinite(errors).all(axis=-1)
+            with np.errstate(invalid="ignore", over="ignore"):
+                total = errors.sum(axis=-1)
+            cost.append(np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf)))
+            finite.append(np.isfinite(b.f[b.rows]).reshape(len(b.rows), -1).all(axis=-1))
+        self.nbroken = np.concatenate(nbroken or [np.zeros(0, int)]).astype(int)
+        self.cost = np.concatenate(cost or [np.zeros(0)])
+        self.finite = np.concatenate(finite or [np.zeros(0, bool)]).astype(bool)
+        generated = np.arange(len(self.index))
+        self.order = np.lexsort((generated, self.nbroken, self.index)) if per_constraint else \
+            np.argsort(self.index, kind="stable")
+
+    def screened(self, i: int) -> Screened:
+        """Result ``i`` (a position in the arrays, not in :attr:`order`) as a :class:`Screened`."""
+        i = int(i)
+        made = self._made.get(i)
+        if made is None:
+            system, block, n = self.system, self.blocks[self.block[i]], int(self.row[i])
+            broken = tuple(system.ids[k] for k in np.flatnonzero(block.broken[n]))
+            if block.kind == "affine":
+                index, op = system.affine[n]
+                made = Screened(op, index, block.f[n], broken, "affine", system.slope[n], system.r0, block.errors[n])
+            elif block.kind == "rotation":
+                index, op = system.rotations[n]
+                made = Screened(op, index, block.f[n], broken, "rotation", system.matrix[n], system.offset[n],
+                                block.errors[n])
+            else:
+                index, op, slopes = system.compounds[int(block.sources[0])]
+                made = Screened(op, index, block.f[0], broken, "compound", slopes, system.r0, block.errors[0])
+            self._made[i] = made
+        return made
 
 
 def _compound_amounts(r0: np.ndarray, slopes: np.ndarray, columns) -> np.ndarray:

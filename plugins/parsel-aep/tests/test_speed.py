@@ -149,15 +149,96 @@ def test_neighbour_candidates_merge_as_before():
     assert got == list(out.values())
 
 
-def test_broken_ids_of_every_candidate_at_once():
-    rng = np.random.default_rng(2)
-    errors = rng.uniform(0, 2e-4, (300, 9))
-    errors[5, 3] = np.nan
-    errors[6, 0] = np.inf
-    system = screening._System([f"r{i}" for i in range(9)], [], [], None, None, [], None, None,
-                               rest_errors=rng.uniform(0, 1.5e-4, 9))
-    got = screening._broken_ids_all(system, errors, 1e-4)
-    assert got == [screening._broken_ids(system, row, 1e-4) for row in errors]
+def reference_screen(candidates, moving, others, constraints, tolerance, per_constraint=False):
+    """Screening as it was: a Screened object for every row, broken ids row by row."""
+    system = screening._system(candidates, moving, others, constraints)
+    allowed = np.maximum(tolerance, system.rest_errors)
+
+    def ids(errors):
+        return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
+
+    results = []
+    for columns in system.slices if per_constraint else [slice(None)]:
+        if system.affine:
+            f, usable = screening._affine_amounts(system.r0, system.slope, columns)
+            errors = screening.relation_max_errors(f[:, :, None] * system.slope[:, None, :] + system.r0,
+                                                   system.slices)
+            for n in np.flatnonzero(usable):
+                index, op = system.affine[n]
+                results.append(screening.Screened(op, index, f[n], ids(errors[n]), "affine", system.slope[n],
+                                                  system.r0, errors[n]))
+        if system.rotations:
+            f, usable = screening._rotation_amounts_batch(system, columns)
+            residual = np.einsum("nkc,ncs->nsk", system.matrix, np.stack([np.cos(f), np.sin(f)], axis=1))
+            residual += system.r0
+            residual -= system.offset[:, None, :]
+            errors = screening.relation_max_errors(residual, system.slices)
+            for n in np.flatnonzero(usable):
+                index, op = system.rotations[n]
+                results.append(screening.Screened(op, index, f[n], ids(errors[n]), "rotation", system.matrix[n],
+                                                  system.offset[n], errors[n]))
+        for index, compound, slopes in system.compounds or ():
+            f = screening._compound_amounts(system.r0, slopes, columns)
+            errors = screening.relation_max_errors((system.r0 + f @ slopes)[None], system.slices)[0]
+            if np.all(np.isfinite(errors)):
+                results.append(screening.Screened(compound, index, f, ids(errors), "compound", slopes, system.r0,
+                                                  errors))
+    results.sort(key=(lambda s: (s.index, len(s.broken))) if per_constraint else (lambda s: s.index))
+    return results
+
+
+def same_screened(a, b) -> bool:
+    return (a.op is b.op and a.index == b.index and a.kind == b.kind and a.broken == b.broken
+            and a.f.tobytes() == b.f.tobytes() and a.a.tobytes() == b.a.tobytes()
+            and a.offset.tobytes() == b.offset.tobytes() and a.errors.tobytes() == b.errors.tobytes()
+            and (a.cost == b.cost or (np.isnan(a.cost) and np.isnan(b.cost))))
+
+
+FIXTURE_REQUESTS = [
+    ("chair_1746.txt", "scale_1d('Program_1/cube0', origin=(0.0, -0.7, 0.0), dir=(0, 1, 0), amount=0.5*x)"),
+    ("chair_2436.txt", "translate(cube1, dir=(0, 1, 0), amount=0.2*x)"),
+    ("chair_42394.txt", "scale_1d(cube1, origin=(0.3, 0.0, 0.0), dir=(0, 0, 1), amount=x)"),
+]
+
+
+def solve_fixtures():
+    from pathlib import Path
+
+    from parsel_aep.propagate import propagate
+    from parsel_core import Program
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+
+    fixtures = Path(__file__).parent / "fixtures"
+    for name, seed in FIXTURE_REQUESTS:
+        propagate(SolveRequest(load_shape(str(fixtures / name)), Program.from_text(seed)))
+
+
+def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
+    """Screening keeps its results as arrays and makes Screened objects only for the rows a
+    search reads; every row, its order, broken ids and error total must be those of
+    making them all."""
+    from parsel_aep import propagate as propagate_module
+
+    table_of = screening.screen_table
+    seen = {"plain": 0, "breaking": 0, "rows": 0}
+
+    def both(candidates, moving, others, constraints, tolerance, per_constraint=False):
+        table = table_of(candidates, moving, others, constraints, tolerance, per_constraint)
+        want = reference_screen(candidates, moving, others, constraints, tolerance, per_constraint)
+        got = [table.screened(i) for i in table.order]
+        assert len(got) == len(want) and all(same_screened(g, w) for g, w in zip(got, want))
+        for i in table.order:
+            s = table.screened(i)
+            assert table.nbroken[i] == len(s.broken) and table.index[i] == s.index
+            assert table.cost[i] == s.cost and table.finite[i] == bool(np.all(np.isfinite(s.f)))
+        seen["breaking" if per_constraint else "plain"] += 1
+        seen["rows"] += len(got)
+        return table
+
+    monkeypatch.setattr(propagate_module, "screen_table", both)
+    solve_fixtures()
+    assert seen["plain"] > 20 and seen["breaking"] > 2 and seen["rows"] > 1000
 
 
 @pytest.mark.parametrize("sizes", [(3, 0, 5, 1, 0), (0, 0, 2), (4,), ()])
@@ -389,35 +470,23 @@ def test_the_least_breaking_edit_is_the_one_ranking_them_all_gives(monkeypatch):
     """Breaking-edits are ranked lazily (only those near the least error); the choice must
     be the one ranking every screened edit gives: the best ranked within 1% of the least
     error among the edits that are not too distorting."""
-    from pathlib import Path
-
-    from parsel_aep.propagate import Propagation, propagate
-    from parsel_core import Program
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.loading import load_shape
+    from parsel_aep.propagate import Propagation
 
     lazy = Propagation.least_breaking
     compared = []
 
-    def both(self, results, rest):
+    def both(self, table, rows, rest):
+        results = [table.screened(i) for i in rows]
         ranked = self.rank(results, rest)
         full = None
         if ranked:
             least = min(s.cost for s in ranked)
             full = next(s for s in ranked if s.cost <= least * 1.01 + self.tolerance)
-        got = lazy(self, results, rest)
+        got = lazy(self, table, rows, rest)
         assert got is full
         compared.append(len(results))
         return got
 
     monkeypatch.setattr(Propagation, "least_breaking", both)
-    fixtures = Path(__file__).parent / "fixtures"
-    for spec, seed in [
-        (fixtures / "chair_1746.txt",
-         "scale_1d('Program_1/cube0', origin=(0.0, -0.7, 0.0), dir=(0, 1, 0), amount=0.5*x)"),
-        (fixtures / "chair_2436.txt", "translate(cube1, dir=(0, 1, 0), amount=0.2*x)"),
-        (fixtures / "chair_42394.txt", "scale_1d(cube1, origin=(0.3, 0.0, 0.0), dir=(0, 0, 1), amount=x)"),
-    ]:
-        shape = load_shape(str(spec))
-        propagate(SolveRequest(shape, Program.from_text(seed)))
+    solve_fixtures()
     assert compared and max(compared) > 16  # several chunks of breaking-edits were ranked

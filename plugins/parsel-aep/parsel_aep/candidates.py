@@ -189,46 +189,66 @@ def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Seque
     return ops
 
 
-#: _about_neighbours' merged ops by (part, the neighbours' corners); bounded.
-_ABOUT: dict[tuple, dict[tuple, EditOp]] = {}
-_ABOUT_SIZE = 256
+#: _about_neighbour's specs by a neighbour's corners; bounded.
+_ABOUT: dict[bytes, tuple[tuple[tuple, type, dict, list | None], ...]] = {}
+_ABOUT_SIZE = 1024
 
 
 def _about_neighbours(part: str, neighbour_hexahedra: Sequence[Hexahedron]) -> dict[tuple, EditOp]:
     """Ops of ``part`` about the neighbours' feature points and along their axes, merged
-    (first of each key kept, in order), cached: the same part is searched again with the
-    same neighbours (repair passes, the fallbacks of a search)."""
-    key = (part, *(np.asarray(h.corners, dtype=float).tobytes() for h in neighbour_hexahedra))
-    out = _ABOUT.get(key)
-    if out is None:
-        out = {}
-        for neighbour in neighbour_hexahedra:
-            points = [_vec(p) for p in neighbour.feature_points]
-            for n in directions(neighbour):
-                n = _vec(n)
-                for p in points:
-                    _add_made(out, Rotate, part, origin=p, axis=n)
-                    _add_made(out, Scale1D, part, origin=p, dir=n)
-                _add_made(out, Translate, part, dir=n)
-            for p in points:
-                _add_made(out, Scale3D, part, origin=p)
-        if len(_ABOUT) >= _ABOUT_SIZE:
-            _ABOUT.clear()
-        _ABOUT[key] = out
+    (first of each key kept, in order). What a neighbour offers does not depend on the
+    part, so each neighbour's keys and normalised parameters are worked out once
+    (:func:`_about_neighbour`) and only the ops are built for each part."""
+    out: dict[tuple, EditOp] = {}
+    for neighbour in neighbour_hexahedra:
+        for key, cls, params, fields in _about_neighbour(neighbour):
+            if key not in out:
+                out[key] = cls(part, "f", **params) if fields is None else _build(cls, part, fields)
     return out
 
 
-def _add_made(out: dict[tuple, EditOp], cls: type, part: str, **params) -> None:
-    """``out.setdefault(key, cls(part, "f", **params))`` keyed as :func:`neighbour_candidates`
-    merges (the op's name and normalised parameters), the op built only for a new key."""
-    fields = _normalised(cls, part, params)
-    if fields is None:  # a class :func:`_make` leaves to its constructor
-        op = cls(part, "f", **params)
-        out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
-        return
-    key = (cls.name, tuple(sorted(fields)))
-    if key not in out:
-        out[key] = _make(cls, part, **params)
+def _about_neighbour(neighbour: Hexahedron) -> tuple[tuple[tuple, type, dict, list | None], ...]:
+    """``(merge key, class, parameters, normalised fields or None)`` of every op about one
+    neighbour's feature points and along its axes, in order, each key once."""
+    cached = _ABOUT.get(corners := np.asarray(neighbour.corners, dtype=float).tobytes())
+    if cached is not None:
+        return cached
+    specs: dict[tuple, tuple[tuple, type, dict, list | None]] = {}
+
+    def add(cls: type, **params) -> None:
+        fields = _normalised(cls, "p", params)
+        if fields is None:  # a class _make leaves to its constructor
+            op = cls("p", "f", **params)
+            key = (op.name, tuple(sorted(op.params().items())))
+        else:
+            key = (cls.name, tuple(sorted(fields)))
+        specs.setdefault(key, (key, cls, params, fields))
+
+    points = [_vec(p) for p in neighbour.feature_points]
+    for n in directions(neighbour):
+        n = _vec(n)
+        for p in points:
+            add(Rotate, origin=p, axis=n)
+            add(Scale1D, origin=p, dir=n)
+        add(Translate, dir=n)
+    for p in points:
+        add(Scale3D, origin=p)
+    if len(_ABOUT) >= _ABOUT_SIZE:
+        _ABOUT.clear()
+    out = _ABOUT[corners] = tuple(specs.values())
+    return out
+
+
+def _build(cls: type, part: str, fields: list[tuple[str, object]]) -> EditOp:
+    """The op :func:`_make` builds, from fields already normalised (:func:`_normalised`)."""
+    op = object.__new__(cls)
+    put = object.__setattr__
+    put(op, "operand", part)
+    put(op, "amount", "f")
+    put(op, "feature", None)
+    for name, value in fields:
+        put(op, name, value)
+    return op
 
 
 #: Normalised vector fields by (unit, value): what ``EditOp.__post_init__`` makes of them.

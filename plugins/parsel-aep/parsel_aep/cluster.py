@@ -223,6 +223,7 @@ class _Numerics:
     def __init__(self, system: ClusterSystem, fast: bool) -> None:
         self.system, self.fast = system, fast
         self.solved: dict = {}
+        self.factored: dict = {}
         self.exact = _Numerics(system, fast=False) if fast else self
 
     def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
@@ -237,17 +238,44 @@ class _Numerics:
         out = self.solved.get(key)
         if out is None:
             live = np.flatnonzero(p)
-            a = self.system.slopes[np.ix_(live, columns)].T * p[live]                   # (K', B')
-            b = self.system.r0[:, columns].T                                           # (K', S)
-            if rows is not None:
-                a = a * rows[:, None]
-                b = rows[:, None] * b
+            compressed = self.compressed(columns, rows)
+            if compressed is not None:  # the same least-squares problem, B rows instead of K'
+                r, b = compressed
+                a = r[:, live] * p[live]
+            else:
+                a = self.system.slopes[np.ix_(live, columns)].T * p[live]               # (K', B')
+                b = self.system.r0[:, columns].T                                       # (K', S)
+                if rows is not None:
+                    a = a * rows[:, None]
+                    b = rows[:, None] * b
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             with one_blas_thread():
                 y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
             out = np.zeros((len(p), b.shape[1]))
             out[live] = p[live, None] * y / norm
             out = self.solved[key] = -out.T
+        return out
+
+    def compressed(self, columns: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(R, Q^T b)`` of the weighted system ``A = Q R`` (K' x B, K' well above B) on these
+        columns and rows, or ``None``. Solves that differ only in the prior (FOCUSS's
+        iterations) scale columns of ``A``: ``min |A P y - b|`` has the minimisers of
+        ``min |R P y - Q^T b|`` and ``A P`` the singular values of ``R P`` (Q has orthonormal
+        columns), so the QR is made once and each solve is B x B."""
+        key = (columns.tobytes(), None if rows is None else rows.tobytes())
+        if key in self.factored:
+            return self.factored[key]
+        out = None
+        if len(columns) >= 2 * self.system.slopes.shape[0]:
+            a = self.system.slopes[:, columns].T                                       # (K', B)
+            b = self.system.r0[:, columns].T                                           # (K', S)
+            if rows is not None:
+                a = a * rows[:, None]
+                b = rows[:, None] * b
+            with one_blas_thread():
+                q, r = np.linalg.qr(a)
+                out = (r, q.T @ b)
+        self.factored[key] = out
         return out
 
     def below(self, values: np.ndarray, limits) -> np.ndarray:

@@ -224,6 +224,7 @@ class _Numerics:
         self.system, self.fast = system, fast
         self.solved: dict = {}
         self.factored: dict = {}
+        self.seen: set = set()
         self.exact = _Numerics(system, fast=False) if fast else self
 
     def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
@@ -261,10 +262,13 @@ class _Numerics:
         columns and rows, or ``None``. Solves that differ only in the prior (FOCUSS's
         iterations) scale columns of ``A``: ``min |A P y - b|`` has the minimisers of
         ``min |R P y - Q^T b|`` and ``A P`` the singular values of ``R P`` (Q has orthonormal
-        columns), so the QR is made once and each solve is B x B."""
+        columns), so the QR is made once (at the second solve) and each solve is B x B."""
         key = (columns.tobytes(), None if rows is None else rows.tobytes())
         if key in self.factored:
             return self.factored[key]
+        if key not in self.seen:  # factored from the second solve on: most systems are solved once
+            self.seen.add(key)
+            return None
         out = None
         if len(columns) >= 2 * self.system.slopes.shape[0]:
             a = self.system.slopes[:, columns].T                                       # (K', B)

@@ -626,6 +626,7 @@ class Propagation:
         soft = [r for r in constraints if r not in exact]
         others = {m: corners[m] for r in exact for m in r.members if m not in rest}
         check = self.sliding_check(corners, rest, soft, sliding)
+        memo: dict = {}  # candidates' residual rows, screened again by the fallbacks below
         own = own_candidates(operand, hexahedron, hint)
         if operand in self.shape.virtual_parents:  # a group is edited as a whole, never by a feature
             own = [op for op in own if op.feature is None]
@@ -636,19 +637,19 @@ class Propagation:
                 state.stats["nhbd_edits"] += 1
                 return outright, ()
         spanning = {id(op) for op in copies if self.spans(op, self.copy_sources[id(op)])}
-        found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check,
+        found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check, memo=memo,
                                      preferred={id(op) for op in copies}, spanning=spanning)
         if found is not None and any(found[0].op is op for op in copies):
             state.stats["nhbd_edits"] += 1
         extra: list = []
         if found is None and self.options.nhbd:
             extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
-            found = self.screen_and_pick(state, extra, rest, others, exact, check=check)
+            found = self.screen_and_pick(state, extra, rest, others, exact, check=check, memo=memo)
             if found is None:
                 # Parameters read off the constraints themselves: a scaling about the origin
                 # that keeps both ends of a spanning part, a translation in any direction.
                 compounds = compound_candidates(operand, hexahedron, directions(hexahedron), hint)
-                found = self.screen_and_pick(state, compounds, rest, others, exact, check=check)
+                found = self.screen_and_pick(state, compounds, rest, others, exact, check=check, memo=memo)
                 extra = extra + compounds
             if found is not None:
                 state.stats["nhbd_edits"] += 1
@@ -659,12 +660,12 @@ class Propagation:
             firm = [r for r in exact if r not in faces]
             loose = self.sliding_check(corners, rest, soft + faces, sliding)
             firm_others = {m: corners[m] for r in firm for m in r.members if m not in rest}
-            found = self.screen_and_pick(state, own + copies + extra, rest, firm_others, firm, check=loose,
+            found = self.screen_and_pick(state, own + copies + extra, rest, firm_others, firm, check=loose, memo=memo,
                                          preferred={id(op) for op in copies})
             if found is not None:
                 exact, others = firm, firm_others
         if found is None and self.options.breaking and breaking:
-            found = self.screen_and_pick(state, own + extra, rest, others, exact, breaking=True)
+            found = self.screen_and_pick(state, own + extra, rest, others, exact, breaking=True, memo=memo)
             if found is not None:
                 state.stats["breaking_edits"] += 1
         rigid = found is not None and not found[1] and found[0].op.name in ("translate", "rotate") \
@@ -854,9 +855,11 @@ class Propagation:
 
     def screen_and_pick(self, state: _State, candidates: list[EditOp], rest, others, constraints,
                         breaking: bool = False, check=None, preferred: set[int] = frozenset(),
-                        spanning: set[int] = frozenset()) -> tuple[Screened, tuple[str, ...]] | None:
+                        spanning: set[int] = frozenset(), memo: dict | None = None
+                        ) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
-        table = screen_table(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking)
+        table = screen_table(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking,
+                             memo=memo)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         state.stats["candidates_screened"] += len(candidates)
         if breaking:

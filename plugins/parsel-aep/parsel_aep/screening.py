@@ -225,36 +225,63 @@ class _System:
 
 
 def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
-            constraints: Sequence[Relation]) -> _System:
-    samples = next(iter(others.values())).shape[0] if others else 1
-    rest_view = {pid: np.broadcast_to(c, (samples, 8, 3)) for pid, c in moving.items()}
-    # Removed instances of a re-laid-out group have NaN corners and are not checked.
-    r0 = np.nan_to_num(_residuals(constraints, {**others, **rest_view}), nan=0.0, posinf=0.0, neginf=0.0)
-    first = {pid: c[:1][None] for pid, c in others.items()}                     # (1, 1, 8, 3)
-    rest_one = {p: c[None, None] for p, c in moving.items()}
-    base, slices = _residuals_and_slices(constraints, {**first, **rest_one})
-    base = base[0, 0]                                                            # (K,)
+            constraints: Sequence[Relation], memo: dict | None = None) -> _System:
+    """The residuals of every candidate as a function of its amount.
+
+    ``memo`` (a dict kept by the caller, one per search) remembers each candidate's rows
+    for these constraints and corners: a search screens its candidates again when it falls
+    back to breaking-edits. A row depends only on its own op (ops are applied and residuals
+    evaluated row by row), so it is the same whichever candidates it was computed with.
+    """
+    key = (tuple(r.id for r in constraints), tuple((m, id(c)) for m, c in others.items()),
+           tuple((m, id(c)) for m, c in moving.items()))
+    known = memo.setdefault(key, {}) if memo is not None else {}
+    shared = known.get(None)
+    if shared is None:
+        samples = next(iter(others.values())).shape[0] if others else 1
+        rest_view = {pid: np.broadcast_to(c, (samples, 8, 3)) for pid, c in moving.items()}
+        # Removed instances of a re-laid-out group have NaN corners and are not checked.
+        r0 = np.nan_to_num(_residuals(constraints, {**others, **rest_view}), nan=0.0, posinf=0.0, neginf=0.0)
+        first = {pid: c[:1][None] for pid, c in others.items()}                 # (1, 1, 8, 3)
+        rest_one = {p: c[None, None] for p, c in moving.items()}
+        base, slices = _residuals_and_slices(constraints, {**first, **rest_one})
+        shared = known[None] = (r0, first, base[0, 0], slices, (others, moving))  # (keeps the ids' arrays alive)
+    r0, first, base, slices, _ = shared
 
     def residual_at(ops, amount):
         batch = ops if isinstance(ops, _Batch) else _Batch(ops)
         moved = {pid: batch.apply(c, amount)[:, None] for pid, c in moving.items()}
         return _residuals(constraints, {**first, **moved})[:, 0]               # (N, K)
 
+    def new(ops: Sequence) -> list:
+        return [op for op in ops if known.get(id(op), (None,))[0] is not op]
+
     affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, (Rotate, Compound))]
     rotations = [(i, op) for i, op in enumerate(candidates) if isinstance(op, Rotate)]
     k = r0.shape[-1]
-    slope = residual_at([op for _, op in affine], 1.0) - base if affine else np.zeros((0, k))
-    if rotations:
-        ops = _Batch([op for _, op in rotations])
+    fresh = new([op for _, op in affine])
+    if fresh:
+        for op, row in zip(fresh, residual_at(fresh, 1.0) - base):
+            known[id(op)] = (op, row)
+    slope = np.array([known[id(op)][1] for _, op in affine]) if affine else np.zeros((0, k))
+    fresh = new([op for _, op in rotations])
+    if fresh:
+        ops = _Batch(fresh)
         at0, at90, at180 = (residual_at(ops, angle) for angle in (0.0, np.pi / 2, np.pi))
-        offset = (at0 - at180) / 2
-        matrix = np.stack([offset, at90 - (at0 + at180) / 2], axis=-1)
+        offsets = (at0 - at180) / 2
+        for op, offset_row, matrix_row in zip(fresh, offsets, np.stack([offsets, at90 - (at0 + at180) / 2], axis=-1)):
+            known[id(op)] = (op, (offset_row, matrix_row))
+    if rotations:
+        offset = np.array([known[id(op)][1][0] for _, op in rotations])
+        matrix = np.array([known[id(op)][1][1] for _, op in rotations])
     else:
         offset, matrix = np.zeros((0, k)), np.zeros((0, k, 2))
     compounds = []
     for i, compound in enumerate(candidates):
         if isinstance(compound, Compound):
-            compounds.append((i, compound, residual_at(list(compound.basis), 1.0) - base))
+            if new([compound]):
+                known[id(compound)] = (compound, residual_at(list(compound.basis), 1.0) - base)
+            compounds.append((i, compound, known[id(compound)][1]))
     return _System([r.id for r in constraints], slices, affine, r0, slope, rotations, matrix, offset, compounds,
                    np.array([r.allowance(0.0) for r in constraints]))
 
@@ -291,18 +318,20 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
 
 
 def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
-                 constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False) -> ScreenTable:
+                 constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False,
+                 memo: dict | None = None) -> ScreenTable:
     """Best amounts and leftover broken relations for every candidate, as arrays.
 
     ``moving``: rest corners (8, 3) of the parts the candidate moves (one part, or all
     members of a group edited through its virtual parent); ``others``: corners (S, 8, 3)
     of every other part the constraints mention, at the S sampled parameter values.
     With ``per_constraint`` (breaking-edits, paper 5.3.1) the amount is solved from each
-    constraint alone and tried against all of them, giving one result per pair.
+    constraint alone and tried against all of them, giving one result per pair. ``memo``:
+    see :func:`_system`.
     """
     if not candidates or not constraints:
         return ScreenTable(None, [], per_constraint)
-    system = _system(candidates, moving, others, constraints)
+    system = _system(candidates, moving, others, constraints, memo)
     allowed = np.maximum(tolerance, system.rest_errors)
     everything = slice(None)
     column_sets = system.slices if per_constraint else [everything]

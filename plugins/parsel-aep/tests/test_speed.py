@@ -216,15 +216,18 @@ def solve_fixtures():
 
 def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
     """Screening keeps its results as arrays and makes Screened objects only for the rows a
-    search reads; every row, its order, broken ids and error total must be those of
-    making them all."""
+    search reads, and takes the rows of candidates a search screened before from its memo;
+    every row, its order, broken ids and error total must be those of screening every
+    candidate afresh and making them all."""
     from parsel_aep import propagate as propagate_module
 
     table_of = screening.screen_table
-    seen = {"plain": 0, "breaking": 0, "rows": 0}
+    seen = {"plain": 0, "breaking": 0, "rows": 0, "reused": 0}
 
-    def both(candidates, moving, others, constraints, tolerance, per_constraint=False):
-        table = table_of(candidates, moving, others, constraints, tolerance, per_constraint)
+    def both(candidates, moving, others, constraints, tolerance, per_constraint=False, memo=None):
+        known = {key for rows in (memo or {}).values() for key in rows if key is not None}
+        reused = any(id(op) in known for op in candidates)
+        table = table_of(candidates, moving, others, constraints, tolerance, per_constraint, memo)
         want = reference_screen(candidates, moving, others, constraints, tolerance, per_constraint)
         got = [table.screened(i) for i in table.order]
         assert len(got) == len(want) and all(same_screened(g, w) for g, w in zip(got, want))
@@ -234,11 +237,13 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
             assert table.cost[i] == s.cost and table.finite[i] == bool(np.all(np.isfinite(s.f)))
         seen["breaking" if per_constraint else "plain"] += 1
         seen["rows"] += len(got)
+        seen["reused"] += reused
         return table
 
     monkeypatch.setattr(propagate_module, "screen_table", both)
     solve_fixtures()
     assert seen["plain"] > 20 and seen["breaking"] > 2 and seen["rows"] > 1000
+    assert seen["reused"] > 2  # rows a search had screened before, taken from its memo
 
 
 @pytest.mark.parametrize("sizes", [(3, 0, 5, 1, 0), (0, 0, 2), (4,), ()])

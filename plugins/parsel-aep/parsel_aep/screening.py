@@ -291,7 +291,7 @@ def _affine_amounts(r0: np.ndarray, slope: np.ndarray, columns) -> tuple[np.ndar
     a = slope[:, columns]
     norm = np.einsum("nk,nk->n", a, a)
     usable = norm > 1e-18
-    f = -np.einsum("sk,nk->ns", r0[:, columns], a) / np.where(usable, norm, 1.0)[:, None]
+    f = -(a @ r0[:, columns].T) / np.where(usable, norm, 1.0)[:, None]
     f[~usable] = 0.0
     return f, usable
 
@@ -300,11 +300,12 @@ def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.nd
     """Angles (N, S) minimising ``|A c + B s + gamma|`` (normal equations, then normalised)."""
     m = system.matrix[:, columns]                                                        # (N, K, 2)
     gamma = system.r0[None, :, columns] - system.offset[:, None, columns]                 # (N, S, K)
-    normal = np.einsum("nkc,nkd->ncd", m, m)
+    mt = np.ascontiguousarray(m.transpose(0, 2, 1))                                     # (N, 2, K)
+    normal = mt @ m
     usable = np.abs(m).max(axis=(1, 2)) > 1e-12
     normal[~usable] = np.eye(2)
     normal += 1e-15 * np.eye(2)
-    rhs = -np.einsum("nkc,nsk->ncs", m, gamma)
+    rhs = -(mt @ gamma.transpose(0, 2, 1))
     cs = np.linalg.solve(normal, rhs)                                                    # (N, 2, S)
     return np.arctan2(cs[:, 1], cs[:, 0]), usable
 

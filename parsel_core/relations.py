@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
@@ -227,9 +228,17 @@ class Attachment(Relation):
         """``point``, ``line``, ``face`` or ``volume``, by the number of point pairs."""
         return self.KINDS.get(len(self.weights_a), f"{len(self.weights_a)}-point")
 
+    @cached_property
+    def _weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """``weights_a`` and ``weights_b`` as arrays (read-only), made once."""
+        out = np.array(self.weights_a), np.array(self.weights_b)
+        for w in out:
+            w.flags.writeable = False
+        return out
+
     def constraint(self, corners):
         a, b = (corners[m] for m in self.members)
-        wa, wb = np.asarray(self.weights_a), np.asarray(self.weights_b)
+        wa, wb = self._weights
         pa = wa @ a if a.dtype != object else np.dot(wa, a)
         pb = wb @ b if b.dtype != object else np.dot(wb, b)
         return _flat(pa - pb)

@@ -348,7 +348,7 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
-            residual = np.einsum("nkc,ncs->nsk", system.matrix, np.stack([cos, sin], axis=1))
+            residual = (system.matrix @ np.stack([cos, sin], axis=1)).transpose(0, 2, 1)     # (N, S, K)
             residual += system.r0                                                      # (A c + B s + r0) - A
             residual -= system.offset[:, None, :]
             errors = _max_abs_per_slice(residual, system.slices)

@@ -169,7 +169,7 @@ def reference_screen(candidates, moving, others, constraints, tolerance, per_con
                                                   system.r0, errors[n]))
         if system.rotations:
             f, usable = screening._rotation_amounts_batch(system, columns)
-            residual = np.einsum("nkc,ncs->nsk", system.matrix, np.stack([np.cos(f), np.sin(f)], axis=1))
+            residual = (system.matrix @ np.stack([np.cos(f), np.sin(f)], axis=1)).transpose(0, 2, 1)
             residual += system.r0
             residual -= system.offset[:, None, :]
             errors = screening.relation_max_errors(residual, system.slices)

@@ -340,20 +340,22 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
     for columns in column_sets:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
-            residual = f[:, :, None] * system.slope[:, None, :]
+            rows = np.flatnonzero(usable)  # (only candidates that move these columns are results)
+            f = f[rows]
+            residual = f[:, :, None] * system.slope[rows, None, :]
             residual += system.r0                                                      # r0 + f a, in place
             errors = _max_abs_per_slice(residual, system.slices)
-            rows = np.flatnonzero(usable)
-            blocks.append(_Block("affine", rows, rows, f, errors, ~(errors < allowed)))
+            blocks.append(_Block("affine", np.arange(len(rows)), rows, f, errors, ~(errors < allowed)))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
-            cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
-            residual = (system.matrix @ np.stack([cos, sin], axis=1)).transpose(0, 2, 1)     # (N, S, K)
-            residual += system.r0                                                      # (A c + B s + r0) - A
-            residual -= system.offset[:, None, :]
-            errors = _max_abs_per_slice(residual, system.slices)
             rows = np.flatnonzero(usable)
-            blocks.append(_Block("rotation", rows, rows, f_all, errors, ~(errors < allowed)))
+            f_all = f_all[rows]
+            cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
+            residual = (system.matrix[rows] @ np.stack([cos, sin], axis=1)).transpose(0, 2, 1)  # (N, S, K)
+            residual += system.r0                                                      # (A c + B s + r0) - A
+            residual -= system.offset[rows, None, :]
+            errors = _max_abs_per_slice(residual, system.slices)
+            blocks.append(_Block("rotation", np.arange(len(rows)), rows, f_all, errors, ~(errors < allowed)))
         for j, (_, _, slopes) in enumerate(system.compounds or ()):
             f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
             residual = system.r0 + f @ slopes
@@ -369,7 +371,7 @@ class _Block:
     """Screened rows of one kind solved from one set of residual columns."""
 
     kind: str
-    rows: np.ndarray     # the rows below that are results (usable amounts)
+    rows: np.ndarray     # the rows below that are results
     sources: np.ndarray  # their candidates: rows of the system's affine, rotations or compounds
     f: np.ndarray        # (N, S) amounts; compound: (1, S, B)
     errors: np.ndarray   # (N, R) largest error of each constraint
@@ -416,17 +418,19 @@ class ScreenTable:
         made = self._made.get(i)
         if made is None:
             system, block, n = self.system, self.blocks[self.block[i]], int(self.row[i])
+            source = int(block.sources[n])
             broken = tuple(system.ids[k] for k in np.flatnonzero(block.broken[n]))
             if block.kind == "affine":
-                index, op = system.affine[n]
-                made = Screened(op, index, block.f[n], broken, "affine", system.slope[n], system.r0, block.errors[n])
-            elif block.kind == "rotation":
-                index, op = system.rotations[n]
-                made = Screened(op, index, block.f[n], broken, "rotation", system.matrix[n], system.offset[n],
+                index, op = system.affine[source]
+                made = Screened(op, index, block.f[n], broken, "affine", system.slope[source], system.r0,
                                 block.errors[n])
+            elif block.kind == "rotation":
+                index, op = system.rotations[source]
+                made = Screened(op, index, block.f[n], broken, "rotation", system.matrix[source],
+                                system.offset[source], block.errors[n])
             else:
-                index, op, slopes = system.compounds[int(block.sources[0])]
-                made = Screened(op, index, block.f[0], broken, "compound", slopes, system.r0, block.errors[0])
+                index, op, slopes = system.compounds[source]
+                made = Screened(op, index, block.f[n], broken, "compound", slopes, system.r0, block.errors[n])
             self._made[i] = made
         return made
 

@@ -859,7 +859,7 @@ class Propagation:
                         ) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
         table = screen_table(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking,
-                             memo=memo)
+                             memo=memo, valid_only=not breaking)
         state.stats["time_s"]["screen"] += time.perf_counter() - clock
         state.stats["candidates_screened"] += len(candidates)
         if breaking:

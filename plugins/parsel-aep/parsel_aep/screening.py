@@ -320,7 +320,7 @@ def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], other
 
 def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
                  constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False,
-                 memo: dict | None = None) -> ScreenTable:
+                 memo: dict | None = None, valid_only: bool = False) -> ScreenTable:
     """Best amounts and leftover broken relations for every candidate, as arrays.
 
     ``moving``: rest corners (8, 3) of the parts the candidate moves (one part, or all
@@ -328,7 +328,10 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
     of every other part the constraints mention, at the S sampled parameter values.
     With ``per_constraint`` (breaking-edits, paper 5.3.1) the amount is solved from each
     constraint alone and tried against all of them, giving one result per pair. ``memo``:
-    see :func:`_system`.
+    see :func:`_system`. With ``valid_only`` (a search that takes only candidates keeping
+    every constraint) a translation or scaling stops being checked at the first constraint
+    it breaks: its other errors are not computed and its count of broken constraints is
+    only known to be positive.
     """
     if not candidates or not constraints:
         return ScreenTable(None, [], per_constraint)
@@ -342,10 +345,14 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
             f, usable = _affine_amounts(system.r0, system.slope, columns)
             rows = np.flatnonzero(usable)  # (only candidates that move these columns are results)
             f = f[rows]
-            residual = f[:, :, None] * system.slope[rows, None, :]
-            residual += system.r0                                                      # r0 + f a, in place
-            errors = _max_abs_per_slice(residual, system.slices)
-            blocks.append(_Block("affine", np.arange(len(rows)), rows, f, errors, ~(errors < allowed)))
+            if valid_only and not per_constraint:
+                errors, broken = _errors_until_broken(system, f, system.slope[rows], allowed)
+            else:
+                residual = f[:, :, None] * system.slope[rows, None, :]
+                residual += system.r0                                                  # r0 + f a, in place
+                errors = _max_abs_per_slice(residual, system.slices)
+                broken = ~(errors < allowed)
+            blocks.append(_Block("affine", np.arange(len(rows)), rows, f, errors, broken))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             rows = np.flatnonzero(usable)
@@ -364,6 +371,30 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
                 blocks.append(_Block("compound", np.zeros(1, dtype=int), np.array([j]), f[None], errors,
                                      ~(errors < allowed)))
     return ScreenTable(system, blocks, per_constraint)
+
+
+def _errors_until_broken(system: _System, f: np.ndarray, slope: np.ndarray, allowed: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """The largest errors (N, R) of ``r0 + f a`` and whether each reaches its allowance, one
+    constraint at a time for the candidates that have broken none so far (the others keep
+    0 for the constraints after the first they break). Per candidate and constraint the
+    same arithmetic as the whole residual at once."""
+    errors = np.zeros((len(f), len(system.slices)))
+    broken = np.zeros(errors.shape, dtype=bool)
+    alive = np.arange(len(f))
+    for j, columns in enumerate(system.slices):
+        if not alive.size:
+            break
+        if columns.stop <= columns.start:
+            continue
+        residual = f[alive, :, None] * slope[alive, None, columns]
+        residual += system.r0[:, columns]
+        worst = np.abs(residual, out=residual).max(axis=(1, 2))
+        errors[alive, j] = worst
+        held = worst < allowed[j]
+        broken[alive, j] = ~held
+        alive = alive[held]
+    return errors, broken
 
 
 @dataclass

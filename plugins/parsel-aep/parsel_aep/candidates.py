@@ -242,12 +242,8 @@ def _about_neighbour(neighbour: Hexahedron) -> tuple[tuple[tuple, type, dict, li
 def _build(cls: type, part: str, fields: list[tuple[str, object]]) -> EditOp:
     """The op :func:`_make` builds, from fields already normalised (:func:`_normalised`)."""
     op = object.__new__(cls)
-    put = object.__setattr__
-    put(op, "operand", part)
-    put(op, "amount", "f")
-    put(op, "feature", None)
-    for name, value in fields:
-        put(op, name, value)
+    op.__dict__.update(operand=part, amount="f", feature=None)
+    op.__dict__.update(fields)
     return op
 
 
@@ -316,16 +312,14 @@ def _vector(cls: type, name: str, value):
 
 
 def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:
-    op = object.__new__(cls)
-    put = object.__setattr__
-    put(op, "operand", part)
-    put(op, "amount", "f")
-    put(op, "feature", None if feature is None else _canonical(feature))
+    values = {"operand": part, "amount": "f", "feature": None if feature is None else _canonical(feature)}
     for name, default in own:
         value = params.get(name, default)
         if value is dataclasses.MISSING:
             return cls(part, "f", feature=feature, **params)
-        put(op, name, _vector(cls, name, value))
+        values[name] = _vector(cls, name, value)
+    op = object.__new__(cls)
+    op.__dict__.update(values)  # (a frozen dataclass: its fields set as the constructor sets them)
     return op
 
 

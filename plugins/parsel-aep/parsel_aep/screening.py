@@ -343,7 +343,7 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
     for columns in column_sets:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
-            rows = np.flatnonzero(usable)  # (only candidates that move these columns are results)
+            rows = np.flatnonzero(usable)
             f = f[rows]
             if valid_only and not per_constraint:
                 errors, broken = _errors_until_broken(system, f, system.slope[rows], allowed)
@@ -352,7 +352,7 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
                 residual += system.r0                                                  # r0 + f a, in place
                 errors = _max_abs_per_slice(residual, system.slices)
                 broken = ~(errors < allowed)
-            blocks.append(_Block("affine", np.arange(len(rows)), rows, f, errors, broken))
+            blocks.append(_Block("affine", rows, f, errors, broken))
         if system.rotations:
             f_all, usable = _rotation_amounts_batch(system, columns)
             rows = np.flatnonzero(usable)
@@ -362,14 +362,13 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
             residual += system.r0                                                      # (A c + B s + r0) - A
             residual -= system.offset[rows, None, :]
             errors = _max_abs_per_slice(residual, system.slices)
-            blocks.append(_Block("rotation", np.arange(len(rows)), rows, f_all, errors, ~(errors < allowed)))
+            blocks.append(_Block("rotation", rows, f_all, errors, ~(errors < allowed)))
         for j, (_, _, slopes) in enumerate(system.compounds or ()):
             f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
             residual = system.r0 + f @ slopes
             errors = relation_max_errors(residual[None], system.slices)
             if np.all(np.isfinite(errors)):
-                blocks.append(_Block("compound", np.zeros(1, dtype=int), np.array([j]), f[None], errors,
-                                     ~(errors < allowed)))
+                blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
     return ScreenTable(system, blocks, per_constraint)
 
 
@@ -399,11 +398,11 @@ def _errors_until_broken(system: _System, f: np.ndarray, slope: np.ndarray, allo
 
 @dataclass
 class _Block:
-    """Screened rows of one kind solved from one set of residual columns."""
+    """Screened rows of one kind solved from one set of residual columns (only candidates
+    that move those columns have an amount, so only they are rows)."""
 
     kind: str
-    rows: np.ndarray     # the rows below that are results
-    sources: np.ndarray  # their candidates: rows of the system's affine, rotations or compounds
+    sources: np.ndarray  # (N,) each row's candidate: a row of the system's affine, rotations or compounds
     f: np.ndarray        # (N, S) amounts; compound: (1, S, B)
     errors: np.ndarray   # (N, R) largest error of each constraint
     broken: np.ndarray   # (N, R) whether it reaches its allowance
@@ -419,8 +418,8 @@ class ScreenTable:
     def __init__(self, system: _System | None, blocks: list[_Block], per_constraint: bool) -> None:
         self.system, self.blocks = system, blocks
         self._made: dict[int, Screened] = {}
-        self.block = np.concatenate([np.full(len(b.rows), i) for i, b in enumerate(blocks)] or [np.zeros(0, int)])
-        self.row = np.concatenate([b.rows for b in blocks] or [np.zeros(0, int)]).astype(int)
+        self.block = np.concatenate([np.full(len(b.sources), i) for i, b in enumerate(blocks)] or [np.zeros(0, int)])
+        self.row = np.concatenate([np.arange(len(b.sources)) for b in blocks] or [np.zeros(0, int)])
         if system is not None:
             first = {"affine": np.array([i for i, _ in system.affine], dtype=int),
                      "rotation": np.array([i for i, _ in system.rotations], dtype=int),
@@ -428,14 +427,14 @@ class ScreenTable:
         self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [np.zeros(0, int)]).astype(int)
         nbroken, cost, finite = [], [], []
         for b in blocks:
-            broken, errors = b.broken[b.rows], b.errors[b.rows]
+            broken, errors = b.broken, b.errors
             nbroken.append(broken.sum(axis=-1))
             # Screened.cost, row by row the same sums (numpy sums each contiguous row alike)
             whole = np.isfinite(errors).all(axis=-1)
             with np.errstate(invalid="ignore", over="ignore"):
                 total = errors.sum(axis=-1)
             cost.append(np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf)))
-            finite.append(np.isfinite(b.f[b.rows]).reshape(len(b.rows), -1).all(axis=-1))
+            finite.append(np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1))
         self.nbroken = np.concatenate(nbroken or [np.zeros(0, int)]).astype(int)
         self.cost = np.concatenate(cost or [np.zeros(0)])
         self.finite = np.concatenate(finite or [np.zeros(0, bool)]).astype(bool)

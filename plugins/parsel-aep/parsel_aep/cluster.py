@@ -244,11 +244,8 @@ class _Numerics:
                 r, b = compressed
                 a = r[:, live] * p[live]
             else:
-                a = self.system.slopes[np.ix_(live, columns)].T * p[live]               # (K', B')
-                b = self.system.r0[:, columns].T                                       # (K', S)
-                if rows is not None:
-                    a = a * rows[:, None]
-                    b = rows[:, None] * b
+                a, b = _weighted(self.system.slopes[np.ix_(live, columns)].T * p[live],  # (K', B')
+                                 self.system.r0[:, columns].T, rows)                     # (K', S)
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             with one_blas_thread():
                 y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
@@ -271,11 +268,7 @@ class _Numerics:
             return None
         out = None
         if len(columns) >= 2 * self.system.slopes.shape[0]:
-            a = self.system.slopes[:, columns].T                                       # (K', B)
-            b = self.system.r0[:, columns].T                                           # (K', S)
-            if rows is not None:
-                a = a * rows[:, None]
-                b = rows[:, None] * b
+            a, b = _weighted(self.system.slopes[:, columns].T, self.system.r0[:, columns].T, rows)
             with one_blas_thread():
                 q, r = np.linalg.qr(a)
                 out = (r, q.T @ b)
@@ -316,6 +309,13 @@ class _Numerics:
             if not value > 1e-250:
                 raise _Borderline
         return bool(value > 0)
+
+
+def _weighted(a: np.ndarray, b: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares problem ``min |a y - b|`` with its rows weighted by ``rows``."""
+    if rows is None:
+        return a, b
+    return a * rows[:, None], rows[:, None] * b
 
 
 def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float) -> np.ndarray:

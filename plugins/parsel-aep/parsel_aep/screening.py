@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from functools import cache, cached_property
+from functools import cache
 from types import SimpleNamespace
 
 import numpy as np
@@ -41,14 +41,9 @@ class Screened:
     a: np.ndarray           # affine: (K,) slope; rotation: (K, 2) [A B]; compound: (B, K) basis slopes
     offset: np.ndarray      # rotation: (K,) the constant part A is measured against
     errors: np.ndarray | None = None  # (R,) largest error of each constraint over the samples
-
-    @cached_property
-    def cost(self) -> float:
-        """Total error of the constraints left broken (breaking-edits compare it; computed once)."""
-        if self.errors is None or not self.broken:
-            return 0.0
-        errors = self.errors[np.isfinite(self.errors)]
-        return float(errors.sum()) if len(errors) == len(self.errors) else float("inf")
+    #: Total error of the constraints left broken, infinite if one is not finite (0 when
+    #: none is): breaking-edits compare it (:attr:`ScreenTable.cost`).
+    cost: float = 0.0
 
 
 def _residuals(relations: Sequence[Relation], corners: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -429,7 +424,7 @@ class ScreenTable:
         for b in blocks:
             broken, errors = b.broken, b.errors
             nbroken.append(broken.sum(axis=-1))
-            # Screened.cost, row by row the same sums (numpy sums each contiguous row alike)
+            # Screened.cost of every row: the errors of a row that breaks a constraint summed
             whole = np.isfinite(errors).all(axis=-1)
             with np.errstate(invalid="ignore", over="ignore"):
                 total = errors.sum(axis=-1)
@@ -453,14 +448,15 @@ class ScreenTable:
             if block.kind == "affine":
                 index, op = system.affine[source]
                 made = Screened(op, index, block.f[n], broken, "affine", system.slope[source], system.r0,
-                                block.errors[n])
+                                block.errors[n], float(self.cost[i]))
             elif block.kind == "rotation":
                 index, op = system.rotations[source]
                 made = Screened(op, index, block.f[n], broken, "rotation", system.matrix[source],
-                                system.offset[source], block.errors[n])
+                                system.offset[source], block.errors[n], float(self.cost[i]))
             else:
                 index, op, slopes = system.compounds[source]
-                made = Screened(op, index, block.f[n], broken, "compound", slopes, system.r0, block.errors[n])
+                made = Screened(op, index, block.f[n], broken, "compound", slopes, system.r0, block.errors[n],
+                                float(self.cost[i]))
             self._made[i] = made
         return made
 

@@ -150,12 +150,19 @@ def test_neighbour_candidates_merge_as_before():
 
 
 def reference_screen(candidates, moving, others, constraints, tolerance, per_constraint=False):
-    """Screening as it was: a Screened object for every row, broken ids row by row."""
+    """Screening as it was: a Screened object for every row, broken ids and error totals
+    row by row."""
     system = screening._system(candidates, moving, others, constraints)
     allowed = np.maximum(tolerance, system.rest_errors)
 
     def ids(errors):
         return tuple(system.ids[i] for i in np.flatnonzero(~(errors < allowed)))
+
+    def made(op, index, f, errors, kind, a, offset):
+        broken = ids(errors)
+        finite = errors[np.isfinite(errors)]
+        cost = 0.0 if not broken else float(finite.sum()) if len(finite) == len(errors) else float("inf")
+        return screening.Screened(op, index, f, broken, kind, a, offset, errors, cost)
 
     results = []
     for columns in system.slices if per_constraint else [slice(None)]:
@@ -165,8 +172,7 @@ def reference_screen(candidates, moving, others, constraints, tolerance, per_con
                                                    system.slices)
             for n in np.flatnonzero(usable):
                 index, op = system.affine[n]
-                results.append(screening.Screened(op, index, f[n], ids(errors[n]), "affine", system.slope[n],
-                                                  system.r0, errors[n]))
+                results.append(made(op, index, f[n], errors[n], "affine", system.slope[n], system.r0))
         if system.rotations:
             f, usable = screening._rotation_amounts_batch(system, columns)
             residual = (system.matrix @ np.stack([np.cos(f), np.sin(f)], axis=1)).transpose(0, 2, 1)
@@ -175,14 +181,12 @@ def reference_screen(candidates, moving, others, constraints, tolerance, per_con
             errors = screening.relation_max_errors(residual, system.slices)
             for n in np.flatnonzero(usable):
                 index, op = system.rotations[n]
-                results.append(screening.Screened(op, index, f[n], ids(errors[n]), "rotation", system.matrix[n],
-                                                  system.offset[n], errors[n]))
+                results.append(made(op, index, f[n], errors[n], "rotation", system.matrix[n], system.offset[n]))
         for index, compound, slopes in system.compounds or ():
             f = screening._compound_amounts(system.r0, slopes, columns)
             errors = screening.relation_max_errors((system.r0 + f @ slopes)[None], system.slices)[0]
             if np.all(np.isfinite(errors)):
-                results.append(screening.Screened(compound, index, f, ids(errors), "compound", slopes, system.r0,
-                                                  errors))
+                results.append(made(compound, index, f, errors, "compound", slopes, system.r0))
     results.sort(key=(lambda s: (s.index, len(s.broken))) if per_constraint else (lambda s: s.index))
     return results
 
@@ -279,10 +283,7 @@ def test_solver_reuses_a_system_it_has_solved():
     first = cluster.solver(system, columns, rows)
     again = cluster.solver(system, columns, rows.copy())
     assert again is first and not first.flags.writeable
-    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
-                                                                  "slices", "r0", "slopes", "weights", "costs",
-                                                                  "allowances")))
-    assert cluster.solver(fresh, columns, rows).tobytes() == first.tobytes()
+    assert cluster.solver(fresh_copy(system), columns, rows).tobytes() == first.tobytes()
     other = cluster.solver(system, columns, rows * 2)
     assert other is not first
 
@@ -335,17 +336,25 @@ def exact_solve(system):
     return f, matrix, kept
 
 
+def fresh_copy(system):
+    """The same system without the matrices it has solved."""
+    return cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
+                                                                 "slices", "r0", "slopes", "weights", "costs",
+                                                                 "allowances")))
+
+
+def assert_solve_is_the_exact_solve(system):
+    f, matrix, kept = cluster.solve(system)
+    f0, matrix0, kept0 = exact_solve(fresh_copy(system))
+    assert kept == kept0
+    assert matrix.tobytes() == matrix0.tobytes() and f.tobytes() == f0.tobytes()
+
+
 @pytest.mark.parametrize("seed", range(12))
 def test_solve_with_fast_decisions_is_bitwise_the_exact_solve(seed):
     rng = np.random.default_rng(seed)
     system = random_system(rng, rank_loss=seed % 3, conflict=[0.0, 0.05, 1.0][seed % 3])
-    f, matrix, kept = cluster.solve(system)
-    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
-                                                                  "slices", "r0", "slopes", "weights", "costs",
-                                                                  "allowances")))
-    f0, matrix0, kept0 = exact_solve(fresh)
-    assert kept == kept0
-    assert matrix.tobytes() == matrix0.tobytes() and f.tobytes() == f0.tobytes()
+    assert_solve_is_the_exact_solve(system)
 
 
 def test_fast_decisions_too_close_to_call_are_refused():
@@ -420,13 +429,7 @@ def test_tall_systems_decide_on_their_qr_and_solve_as_the_exact_solver(seed):
         got, want = fast.amounts(columns, rows, prior), exact.amounts(columns, rows, prior)
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
     assert [v is not None for v in fast.factored.values()] == [True]  # one QR for the last three
-    f, matrix, kept = cluster.solve(system)
-    fresh = cluster.ClusterSystem(*(getattr(system, f) for f in ("parts", "compounds", "blocks", "constraints",
-                                                                  "slices", "r0", "slopes", "weights", "costs",
-                                                                  "allowances")))
-    f0, matrix0, kept0 = exact_solve(fresh)
-    assert kept == kept0
-    assert matrix.tobytes() == matrix0.tobytes() and f.tobytes() == f0.tobytes()
+    assert_solve_is_the_exact_solve(system)
 
 
 def reference_slopes(parts, hexahedra, rest, constraints, frame, shears, members):

@@ -481,18 +481,45 @@ def solve(system: ClusterSystem) -> tuple[np.ndarray, np.ndarray, list[int]]:
     ones when it is too close to call (:class:`_Numerics`); the amounts and the solver
     returned are the exact solve of what was chosen.
     """
-    kept, prior = _plan(system, _Numerics(system, fast=True))
-    columns = _columns(system, kept)
-    if not kept:
-        matrix = np.zeros((len(system.weights), 0))
-    else:
-        matrix = solver(system, columns, _row_weights(system, kept), prior)
-    return _amounts(system, matrix, columns), matrix, kept
+    return plan(system).solve()
 
 
-def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.ndarray | None]:
-    """:func:`solve`'s choices: the constraints kept and the prior of the sparse solution
-    (``None``: the plain least-costed one)."""
+@dataclass
+class Plan:
+    """What :func:`solve` keeps, chosen; the sparse amounts are solved on :meth:`solve`.
+
+    Which constraints are kept is known before the amounts are made sparse, and the sparse
+    amounts keep the same constraints: a caller ranking clusters by what they give up
+    solves only the ones it goes on to use.
+    """
+
+    system: ClusterSystem
+    kept: list[int]
+    f: np.ndarray                   # the least-costed amounts on ``kept`` (fast numerics)
+    numerics: _Numerics
+
+    def solve(self) -> tuple[np.ndarray, np.ndarray, list[int]]:
+        """:func:`solve`'s result: the exact sparse amounts, their solver and ``kept``."""
+        system, kept = self.system, self.kept
+        prior = _sparse_prior(system, kept, self.f, 12, self.numerics)
+        columns = _columns(system, kept)
+        if not kept:
+            matrix = np.zeros((len(system.weights), 0))
+        else:
+            matrix = solver(system, columns, _row_weights(system, kept), prior)
+        return _amounts(system, matrix, columns), matrix, kept
+
+
+def plan(system: ClusterSystem) -> Plan:
+    """The constraints :func:`solve` keeps (its sparse amounts still to solve)."""
+    numerics = _Numerics(system, fast=True)
+    kept, f = _plan(system, numerics)
+    return Plan(system, kept, f, numerics)
+
+
+def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.ndarray]:
+    """:func:`solve`'s choice of the constraints kept, and the least-costed amounts on them
+    that the sparse solution starts from."""
     everything = list(range(len(system.constraints)))
     best = None
     for start in (everything, None):
@@ -516,7 +543,7 @@ def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.nda
         if len(kept) == len(everything):
             break
     _, f, kept = best
-    return kept, _sparse_prior(system, kept, f, 12, numerics)
+    return kept, f
 
 
 def _score(system: ClusterSystem, f: np.ndarray, kept: list[int], numerics: _Numerics) -> tuple[int, float]:

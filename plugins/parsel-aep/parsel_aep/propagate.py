@@ -19,8 +19,10 @@ anywhere in [0, tau]:
 from __future__ import annotations
 
 import dataclasses
+import functools
+import itertools
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -123,13 +125,24 @@ class _Cluster:
 
     parts: list[str]
     members: set[str]
-    system: Any
-    f: np.ndarray
-    matrix: np.ndarray
-    kept: list[int]
+    plan: cluster_module.Plan
     others_ops: list[EditOp]
     constraints: list[Relation]
     score: tuple
+
+    @property
+    def system(self) -> cluster_module.ClusterSystem:
+        return self.plan.system
+
+    @property
+    def kept(self) -> list[int]:
+        return self.plan.kept
+
+    @functools.cached_property
+    def solution(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sparse amounts (S, B) and their solver (B, K'), solved when first read."""
+        f, matrix, _ = self.plan.solve()
+        return f, matrix
 
 
 def validate_request(request: SolveRequest) -> None:
@@ -377,17 +390,11 @@ class Propagation:
                 part_sets.append(units - turned)
             if groups and all(self.hints.get(m) in allowed for g in groups for m in self.unit_members(g)):
                 part_sets.append((units - groups) | {m for g in groups for m in self.unit_members(g)})
-            solved = []
-            for shears in (False, True):
-                for parts in part_sets:
-                    frames = ["local"] + (["world"] if not all(
-                        cluster_module.aligned(self.shape.part(p).hexahedron) for p in parts) else [])
-                    for frame in frames:
-                        found = self.cluster_solve(state, sorted(parts), frame, shears)
-                        if found is not None:
-                            solved.append(found)
+            variants = [(sorted(parts), frame, shears) for shears in (False, True) for parts in part_sets
+                        for frame in ["local"] + (["world"] if not all(
+                            cluster_module.aligned(self.shape.part(p).hexahedron) for p in parts) else [])]
             # The numerically most promising variants are derived and checked in full.
-            for found in sorted(solved, key=lambda v: v.score)[:3]:
+            for found in itertools.islice(self.best_clusters(state, variants), 3):
                 ops = self.cluster_ops(state, found)
                 if ops is None:
                     continue
@@ -401,6 +408,30 @@ class Propagation:
         if best[1] is not None:
             state.ops = best[1]
             state.stats["joint_repairs"] = state.stats.get("joint_repairs", 0) + 1
+
+    def best_clusters(self, state: _State, variants: Sequence[tuple[list[str], str, bool]]) -> Iterator[_Cluster]:
+        """The solved ``(parts, frame, shears)`` variants, least score first (ties in the
+        order given), each solved only when it may come next.
+
+        A score is ``(dropped, their error, shears, world frame)``, so an unsolved variant
+        scores at least ``(0, 0.0, shears, world frame)``: a solved one that beats every
+        unsolved variant's bound comes next whatever they give, and the joint pass, which
+        stops at the first cluster keeping everything, mostly solves few variants.
+        """
+        pending = [((0, 0.0, shears, frame != "local"), i) for i, (_, frame, shears) in enumerate(variants)]
+        solved: list[tuple[tuple, int, _Cluster]] = []
+        while pending or solved:
+            best = min(solved, key=lambda t: (t[0], t[1]), default=None)
+            if best is not None and (not pending or (best[0], best[1]) < min(pending)):
+                solved.remove(best)
+                yield best[2]
+                continue
+            bound = min(pending)
+            pending.remove(bound)
+            parts, frame, shears = variants[bound[1]]
+            found = self.cluster_solve(state, parts, frame, shears)
+            if found is not None:
+                solved.append((found.score, bound[1], found))
 
     def unit_members(self, unit: str) -> tuple[str, ...]:
         """The parts an op on ``unit`` moves: the part itself, or a group's members."""
@@ -428,20 +459,28 @@ class Propagation:
                                              frozenset(p for p in parts if self.hints.get(p) == "translate"),
                                              targets)
         try:
-            f, matrix, kept = cluster_module.solve(system)
+            plan = cluster_module.plan(system)
+            dropped = [i for i in range(len(constraints)) if i not in set(plan.kept)]
+            if dropped and not self.options.breaking:
+                return None  # giving up relations is a breaking-edit
+            found = _Cluster(parts, members, plan, others_ops, constraints, ())
+            # Dropped constraints are scored on the sparse amounts; a cluster keeping every
+            # constraint scores 0 whatever its amounts, so those are solved when derived.
+            errors = cluster_module.relation_errors(system, found.solution[0]) if dropped else np.zeros(0)
         except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
             return None
-        state.stats["time_s"]["screen"] += time.perf_counter() - clock
-        if len(kept) < len(constraints) and not self.options.breaking:
-            return None  # giving up relations is a breaking-edit
-        errors = cluster_module.relation_errors(system, f)
-        dropped = [i for i in range(len(constraints)) if i not in set(kept)]
-        score = (len(dropped), float(sum(errors[i] for i in dropped)), shears, frame != "local")
-        return _Cluster(parts, members, system, f, matrix, kept, others_ops, constraints, score)
+        finally:
+            state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        found.score = (len(dropped), float(sum(errors[i] for i in dropped)), shears, frame != "local")
+        return found
 
     def cluster_ops(self, state: _State, found: _Cluster) -> list[EditOp] | None:
         """The program with the cluster's edits replaced by its joint edit, amounts in closed form."""
         clock = time.perf_counter()
+        try:
+            _ = found.solution  # (solved here when its score did not need it)
+        except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
+            return None
         kept_constraints = [found.constraints[i] for i in found.kept]
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
         symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)
@@ -470,7 +509,7 @@ class Propagation:
         the samples)``. A part with shears has its linear part factored exactly (factor.py);
         the others' ops are the simplified basis (compound.simplify). ``None`` when a
         sheared part has no exact factors (a pivot near zero in every axis order)."""
-        system, f = found.system, found.f
+        system, (f, matrix) = found.system, found.solution
         total = len(system.weights)
         out = []
         for compound, block in zip(system.compounds, system.blocks):
@@ -481,7 +520,7 @@ class Propagation:
                 return None
             if sheared:
                 live = factor_module.live(fb)
-                exprs = [linear_combination(self.backend, -found.matrix[block.start + i], residual) if on
+                exprs = [linear_combination(self.backend, -matrix[block.start + i], residual) if on
                          else None for i, on in enumerate(live)]
                 one = self.backend.number(1.0)
                 symbolic = factor_module.factor(compound, exprs, live, order, one)
@@ -491,7 +530,7 @@ class Propagation:
             for term in simplify(compound, fb, self.shape.size):
                 weights = np.zeros(total)
                 weights[block] = term.weights
-                out.append((term.op, linear_combination(self.backend, -(weights @ found.matrix), residual),
+                out.append((term.op, linear_combination(self.backend, -(weights @ matrix), residual),
                             f @ weights))
         return out
 

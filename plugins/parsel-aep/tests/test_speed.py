@@ -6,6 +6,8 @@ the joint pass remembers the systems it has solved; none of these may change a p
 (benchmarks/bench_aep_speed.py checks whole programs against a baseline revision).
 """
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -202,6 +204,7 @@ FIXTURE_REQUESTS = [
     ("chair_1746.txt", "scale_1d('Program_1/cube0', origin=(0.0, -0.7, 0.0), dir=(0, 1, 0), amount=0.5*x)"),
     ("chair_2436.txt", "translate(cube1, dir=(0, 1, 0), amount=0.2*x)"),
     ("chair_42394.txt", "scale_1d(cube1, origin=(0.3, 0.0, 0.0), dir=(0, 0, 1), amount=x)"),
+    ("table_23034.txt", "scale_1d(cube1, origin=(0.0, 0.3575, 0.0), dir=(1, 0, 0), amount=x)"),
 ]
 
 
@@ -530,3 +533,43 @@ def test_the_least_breaking_edit_is_the_one_ranking_them_all_gives(monkeypatch):
     monkeypatch.setattr(Propagation, "least_breaking", both)
     solve_fixtures()
     assert compared and max(compared) > 16  # several chunks of breaking-edits were ranked
+
+
+def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
+    """The joint pass solves its variants lazily (propagate.best_clusters); they must come
+    in the order of solving every variant and sorting them by score, and a variant keeping
+    every constraint must score as its sparse amounts do (0 error dropped)."""
+    from parsel_aep.propagate import Propagation
+
+    lazy = Propagation.best_clusters
+    seen = {"rings": 0, "variants": 0, "solved for the first": 0}
+
+    def both(self, state, variants):
+        solved = [self.cluster_solve(state, *v) for v in variants]
+        want = [(f.parts, f.score) for f in sorted((f for f in solved if f is not None), key=lambda f: f.score)]
+        for found in solved:
+            if found is not None and found.score[0] == 0:
+                errors = cluster.relation_errors(found.system, found.solution[0])
+                assert np.all(errors < found.system.allowances)
+        calls = []
+        real = self.cluster_solve
+
+        def counted(*args):
+            calls.append(args)
+            return real(*args)
+
+        monkeypatch.setattr(self, "cluster_solve", counted, raising=False)
+        ranked = lazy(self, state, variants)
+        got = list(itertools.islice(ranked, 1))
+        seen["solved for the first"] += len(calls)
+        got += list(ranked)
+        monkeypatch.delattr(self, "cluster_solve")
+        assert [(f.parts, f.score) for f in got] == want
+        seen["rings"] += 1
+        seen["variants"] += len(variants)
+        yield from got
+
+    monkeypatch.setattr(Propagation, "best_clusters", both)
+    solve_fixtures()
+    assert seen["rings"] >= 2 and seen["variants"] > seen["rings"]
+    assert seen["solved for the first"] < seen["variants"]  # the first came before all were solved

@@ -48,7 +48,15 @@ from parsel_aep.derive import (
     simpler_equivalent,
     symbolic_residual,
 )
-from parsel_aep.screening import Screened, ScreenTable, compound_solver, residual_slices, screen, screen_table
+from parsel_aep.screening import (
+    Screened,
+    ScreenTable,
+    apply_each,
+    compound_solver,
+    residual_slices,
+    screen,
+    screen_table,
+)
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
@@ -63,6 +71,9 @@ from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, Tran
 from parsel_core.report import batch_relation_errors, check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
+#: How many programs' corners and relation errors a run keeps (bounded memory on large shapes).
+_REMEMBERED_PROGRAMS = 64
+_REMEMBERED_ERRORS = 100_000
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
 BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
 
@@ -203,6 +214,10 @@ class Propagation:
         self.rest = self.shape.rest_corners()
         self.hints = dict(request.hints)
         self.copy_sources: dict[int, str] = {}
+        #: Recent programs' corners (:meth:`corners`) and relation errors by what they read
+        #: (:meth:`error`): the loop, the repair and the joint pass check the same states again.
+        self._corners: dict[tuple, dict[str, np.ndarray]] = {}
+        self._errors: dict[tuple, float] = {}
 
     # -- program bookkeeping -------------------------------------------------------
 
@@ -210,7 +225,30 @@ class Propagation:
         return Program(tuple(ops), (self.params,), {"solver": "aep"})
 
     def corners(self, ops: Sequence[EditOp]) -> dict[str, np.ndarray]:
-        return evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
+        """Every part's corners (S, 8, 3) at the samples under ``ops`` (read-only arrays)."""
+        key = tuple(ops)
+        known = self._corners.get(key)
+        if known is None:
+            if len(self._corners) >= _REMEMBERED_PROGRAMS:
+                self._corners.clear()
+            known = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
+            for array in known.values():
+                array.flags.writeable = False
+            self._corners[key] = known
+        return dict(known)
+
+    def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
+        """:func:`relation_error`, remembered by what it reads: the members' corners and
+        which of them slide. Between two checks of the whole shape only the relations of
+        the parts edited since are evaluated again."""
+        key = (relation.id, *((m in sliding, c.shape, c.dtype.str, c.tobytes())
+                              for m in relation.members for c in (np.asarray(corners[m]),)))
+        error = self._errors.get(key)
+        if error is None:
+            if len(self._errors) >= _REMEMBERED_ERRORS:
+                self._errors.clear()
+            error = self._errors[key] = relation_error(relation, corners, sliding)
+        return error
 
     def broken(self, state: _State, corners: Mapping[str, np.ndarray]) -> list[Relation]:
         sliding = sliding_members(self.shape, self.program(state.ops))
@@ -284,13 +322,13 @@ class Propagation:
 
     def holds(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> bool:
         """Whether ``relation`` holds at every sample (within its allowance)."""
-        return relation_error(relation, corners, sliding) < relation.allowance(self.tolerance)
+        return self.error(relation, corners, sliding) < relation.allowance(self.tolerance)
 
     def damage(self, ops: Sequence[EditOp]) -> tuple[float, int]:
         """How badly ``ops`` break the relations that must hold: total error, then count."""
         corners = self.corners(ops)
         sliding = sliding_members(self.shape, self.program(ops))
-        errors = [relation_error(r, corners, sliding) for r in self.relations]
+        errors = [self.error(r, corners, sliding) for r in self.relations]
         broken = [e for e, r in zip(errors, self.relations) if not e < r.allowance(self.tolerance)]
         return (float(sum(e for e in broken if np.isfinite(e))) + (np.inf if any(not np.isfinite(e) for e in broken)
                                                                    else 0.0), len(broken))
@@ -949,9 +987,14 @@ class Propagation:
         at the end of the range."""
         energy = np.zeros(len(pool))
         counts = np.zeros(len(pool))
+        ops = [s.op for s in pool if s.kind != "compound"]
+        amounts = [float(s.f[-1]) for s in pool if s.kind != "compound"]
+        compound = [i for i, s in enumerate(pool) if s.kind == "compound"]
         for corners in rest.values():
-            edited = np.stack([s.op.apply(corners, s.f[-1] if s.kind == "compound" else float(s.f[-1]), np)
-                               for s in pool])
+            edited = np.empty((len(pool), 8, 3))
+            edited[[i for i, s in enumerate(pool) if s.kind != "compound"]] = apply_each(ops, corners, amounts)
+            for i in compound:
+                edited[i] = pool[i].op.apply(corners, pool[i].f[-1], np)
             energy += arap_energies(corners, edited)
             if planes:
                 counts += symmetry_plane_counts(edited)

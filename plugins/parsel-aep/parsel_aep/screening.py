@@ -76,6 +76,22 @@ def _apply_all(ops: Sequence[EditOp], rest: np.ndarray, amount: float) -> np.nda
     return _Batch(ops).apply(rest, amount)
 
 
+def apply_each(ops: Sequence[EditOp], rest: np.ndarray, amounts: Sequence[float]) -> np.ndarray:
+    """Each op applied to the rest corners (8, 3) at its own amount: (N, 8, 3), to the bit
+    ``np.stack([op.apply(rest, amount, np) ...])``. Translations, scalings and shears are
+    batched (products and sums, element by element the same); rotations, whose batched
+    sines and cosines may round differently from one angle's, are applied one by one."""
+    amounts = np.asarray(amounts, dtype=float)
+    linear = [i for i, op in enumerate(ops) if type(op) in _BATCHED and type(op) is not Rotate]
+    out = np.empty((len(ops), 8, 3))
+    for i in sorted(set(range(len(ops))) - set(linear)):
+        out[i] = ops[i].apply(rest, float(amounts[i]), np)
+    if linear:
+        batch = _Batch([ops[i] for i in linear])
+        out[linear] = batch.apply(rest, amounts[linear])
+    return out
+
+
 class _Batch:
     """Ops applied together: those of one class on one feature at once (:func:`_apply_batch`,
     their vector fields gathered once for every amount and part), any other op (an
@@ -93,12 +109,15 @@ class _Batch:
         self.groups = [(kind, feature, index, _fields(kind, [self.ops[i] for i in index]))
                        for (kind, feature), index in groups.items()]
 
-    def apply(self, rest: np.ndarray, amount: float) -> np.ndarray:
+    def apply(self, rest: np.ndarray, amount: float | np.ndarray) -> np.ndarray:
+        """Every op at ``amount``, or each at its own (``amount`` of shape (N,))."""
+        each = np.ndim(amount) == 1
         out = np.empty((len(self.ops), 8, 3))
         for i in self.single:
-            out[i] = self.ops[i].apply(rest, amount, NUMPY_MATH)
+            out[i] = self.ops[i].apply(rest, float(amount[i]) if each else amount, NUMPY_MATH)
         for kind, feature, index, fields in self.groups:
-            out[index] = _apply_batch(kind, feature, fields, rest, amount)
+            out[index] = _apply_batch(kind, feature, fields, rest,
+                                      np.asarray(amount)[index][:, None, None] if each else amount)
         return out
 
 

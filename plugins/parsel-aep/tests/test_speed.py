@@ -70,6 +70,18 @@ def test_batched_application_is_bitwise_the_ops_own(seed, amount):
     assert batched.tobytes() == plain.tobytes()
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_ops_applied_each_at_its_own_amount_are_bitwise_the_ops_own(seed):
+    rng = np.random.default_rng(seed)
+    rest = skewed_box(rng).corners
+    ops = random_ops(rng, 60)
+    ops.insert(7, Anchor())
+    amounts = rng.normal(size=len(ops)) * rng.choice([1e-6, 1.0, 100.0], size=len(ops))
+    each = screening.apply_each(ops, rest, amounts)
+    plain = np.stack([op.apply(rest, float(a), np) for op, a in zip(ops, amounts)])
+    assert each.tobytes() == plain.tobytes()
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_candidate_lists_are_the_same_built_lazily_and_cached(seed):
     rng = np.random.default_rng(seed)
@@ -573,3 +585,37 @@ def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
     solve_fixtures()
     assert seen["rings"] >= 2 and seen["variants"] > seen["rings"]
     assert seen["solved for the first"] < seen["variants"]  # the first came before all were solved
+
+
+def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
+    """A run remembers programs' corners and relation errors by what they read; every
+    answer, remembered or not, must be the fresh evaluation's, to the bit."""
+    from parsel_aep import propagate as propagate_module
+    from parsel_aep.propagate import Propagation
+    from parsel_core.program import evaluate
+
+    corners_of, error_of = Propagation.corners, Propagation.error
+    seen = {"corners": 0, "corners remembered": 0, "errors": 0, "errors remembered": 0}
+
+    def corners(self, ops):
+        remembered = tuple(ops) in self._corners
+        got = corners_of(self, ops)
+        fresh = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
+        assert got.keys() == fresh.keys()
+        assert all(got[p].tobytes() == fresh[p].tobytes() and not got[p].flags.writeable for p in got)
+        seen["corners"] += 1
+        seen["corners remembered"] += remembered
+        return got
+
+    def error(self, relation, corners, sliding=()):
+        before = len(self._errors)
+        got = error_of(self, relation, corners, sliding)
+        assert got == propagate_module.relation_error(relation, corners, sliding)
+        seen["errors"] += 1
+        seen["errors remembered"] += len(self._errors) == before
+        return got
+
+    monkeypatch.setattr(Propagation, "corners", corners)
+    monkeypatch.setattr(Propagation, "error", error)
+    solve_fixtures()
+    assert seen["corners remembered"] > 5 and seen["errors remembered"] > seen["errors"] / 2

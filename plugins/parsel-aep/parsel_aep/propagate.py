@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import hashlib
 import itertools
 import time
 from collections.abc import Iterator, Mapping, Sequence
@@ -71,8 +72,9 @@ from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, Tran
 from parsel_core.report import batch_relation_errors, check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
-#: How many programs' corners and relation errors a run keeps (bounded memory on large shapes).
-_REMEMBERED_PROGRAMS = 64
+#: How many parts' corners (S, 8, 3) of recent programs and how many relation errors a run
+#: keeps: bounded memory on large shapes (a few tens of MB).
+_REMEMBERED_CORNERS = 4096
 _REMEMBERED_ERRORS = 100_000
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
 BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
@@ -156,6 +158,11 @@ class _Cluster:
         return f, matrix
 
 
+def _digest(array: np.ndarray) -> bytes:
+    """A 128-bit digest of an array's values (its shape and type are keyed apart)."""
+    return hashlib.blake2b(array.tobytes(), digest_size=16).digest()
+
+
 def validate_request(request: SolveRequest) -> None:
     """Unknown parts, relations or hint types are one-line errors naming them."""
     shape = request.shape
@@ -229,7 +236,7 @@ class Propagation:
         key = tuple(ops)
         known = self._corners.get(key)
         if known is None:
-            if len(self._corners) >= _REMEMBERED_PROGRAMS:
+            if len(self._corners) * len(self.rest) >= _REMEMBERED_CORNERS:
                 self._corners.clear()
             known = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
             for array in known.values():
@@ -238,10 +245,10 @@ class Propagation:
         return dict(known)
 
     def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
-        """:func:`relation_error`, remembered by what it reads: the members' corners and
-        which of them slide. Between two checks of the whole shape only the relations of
-        the parts edited since are evaluated again."""
-        key = (relation.id, *((m in sliding, c.shape, c.dtype.str, c.tobytes())
+        """:func:`relation_error`, remembered by what it reads: the members' corners (by a
+        128-bit digest) and which of them slide. Between two checks of the whole shape only
+        the relations of the parts edited since are evaluated again."""
+        key = (relation.id, *((m in sliding, c.shape, c.dtype.str, _digest(c))
                               for m in relation.members for c in (np.asarray(corners[m]),)))
         error = self._errors.get(key)
         if error is None:

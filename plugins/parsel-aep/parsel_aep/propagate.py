@@ -72,9 +72,9 @@ from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, Tran
 from parsel_core.report import batch_relation_errors, check_program, relation_error, sliding_members, tolerance_for
 
 HINTS = (*HINT_TYPES, "keep")
-#: How many parts' corners (S, 8, 3) of recent programs and how many relation errors a run
-#: keeps: bounded memory on large shapes (a few tens of MB).
-_REMEMBERED_CORNERS = 4096
+#: How many parts' corners (8, 3) at one sample of recent programs, and how many relation
+#: errors, a run keeps: about 13 MB and 10 MB at most, on shapes of any size.
+_REMEMBERED_CORNERS = 70_000
 _REMEMBERED_ERRORS = 100_000
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
 BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
@@ -141,7 +141,7 @@ class _Cluster:
     plan: cluster_module.Plan
     others_ops: list[EditOp]
     constraints: list[Relation]
-    score: tuple
+    score: tuple = ()
 
     @property
     def system(self) -> cluster_module.ClusterSystem:
@@ -159,8 +159,10 @@ class _Cluster:
 
 
 def _digest(array: np.ndarray) -> bytes:
-    """A 128-bit digest of an array's values (its shape and type are keyed apart)."""
-    return hashlib.blake2b(array.tobytes(), digest_size=16).digest()
+    """A 128-bit digest of an array's shape, type and values."""
+    digest = hashlib.blake2b(repr((array.shape, array.dtype.str)).encode(), digest_size=16)
+    digest.update(array.tobytes())
+    return digest.digest()
 
 
 def validate_request(request: SolveRequest) -> None:
@@ -232,24 +234,26 @@ class Propagation:
         return Program(tuple(ops), (self.params,), {"solver": "aep"})
 
     def corners(self, ops: Sequence[EditOp]) -> dict[str, np.ndarray]:
-        """Every part's corners (S, 8, 3) at the samples under ``ops`` (read-only arrays)."""
-        key = tuple(ops)
+        """Every part's corners (S, 8, 3) at the samples under ``ops`` (read-only arrays).
+
+        Remembered by the ops' identities (the entry holds the ops, so those stay unique):
+        equal ops may differ in the sign of a zero, which the corners could keep."""
+        key = tuple(map(id, ops))
         known = self._corners.get(key)
         if known is None:
-            if len(self._corners) * len(self.rest) >= _REMEMBERED_CORNERS:
+            if len(self._corners) * len(self.rest) * len(self.xs) >= _REMEMBERED_CORNERS:
                 self._corners.clear()
-            known = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
-            for array in known.values():
+            parts = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
+            for array in parts.values():
                 array.flags.writeable = False
-            self._corners[key] = known
-        return dict(known)
+            known = self._corners[key] = (tuple(ops), parts)
+        return dict(known[1])
 
     def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
         """:func:`relation_error`, remembered by what it reads: the members' corners (by a
         128-bit digest) and which of them slide. Between two checks of the whole shape only
         the relations of the parts edited since are evaluated again."""
-        key = (relation.id, *((m in sliding, c.shape, c.dtype.str, _digest(c))
-                              for m in relation.members for c in (np.asarray(corners[m]),)))
+        key = (relation.id, *((m in sliding, _digest(np.asarray(corners[m]))) for m in relation.members))
         error = self._errors.get(key)
         if error is None:
             if len(self._errors) >= _REMEMBERED_ERRORS:
@@ -461,7 +465,9 @@ class Propagation:
         A score is ``(dropped, their error, shears, world frame)``, so an unsolved variant
         scores at least ``(0, 0.0, shears, world frame)``: a solved one that beats every
         unsolved variant's bound comes next whatever they give, and the joint pass, which
-        stops at the first cluster keeping everything, mostly solves few variants.
+        stops at the first cluster keeping everything, mostly solves few variants. A
+        cluster whose sparse amounts cannot be solved is left out, as an unsolvable
+        variant is.
         """
         pending = [((0, 0.0, shears, frame != "local"), i) for i, (_, frame, shears) in enumerate(variants)]
         solved: list[tuple[tuple, int, _Cluster]] = []
@@ -469,6 +475,13 @@ class Propagation:
             best = min(solved, key=lambda t: (t[0], t[1]), default=None)
             if best is not None and (not pending or (best[0], best[1]) < min(pending)):
                 solved.remove(best)
+                clock = time.perf_counter()
+                try:
+                    _ = best[2].solution  # (its sparse amounts, if its score did not need them)
+                except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
+                    continue
+                finally:
+                    state.stats["time_s"]["screen"] += time.perf_counter() - clock
                 yield best[2]
                 continue
             bound = min(pending)
@@ -505,27 +518,26 @@ class Propagation:
                                              targets)
         try:
             plan = cluster_module.plan(system)
-            dropped = [i for i in range(len(constraints)) if i not in set(plan.kept)]
+            kept = set(plan.kept)
+            dropped = [i for i in range(len(constraints)) if i not in kept]
             if dropped and not self.options.breaking:
                 return None  # giving up relations is a breaking-edit
-            found = _Cluster(parts, members, plan, others_ops, constraints, ())
+            found = _Cluster(parts, members, plan, others_ops, constraints)
             # Dropped constraints are scored on the sparse amounts; a cluster keeping every
-            # constraint scores 0 whatever its amounts, so those are solved when derived.
-            errors = cluster_module.relation_errors(system, found.solution[0]) if dropped else np.zeros(0)
+            # constraint scores 0 whatever its amounts, so those are solved when it comes up
+            # (best_clusters).
+            f = found.solution[0] if dropped else None
         except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
             return None
         finally:
             state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        errors = cluster_module.relation_errors(system, f) if dropped else np.zeros(0)
         found.score = (len(dropped), float(sum(errors[i] for i in dropped)), shears, frame != "local")
         return found
 
     def cluster_ops(self, state: _State, found: _Cluster) -> list[EditOp] | None:
         """The program with the cluster's edits replaced by its joint edit, amounts in closed form."""
         clock = time.perf_counter()
-        try:
-            _ = found.solution  # (solved here when its score did not need it)
-        except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
-            return None
         kept_constraints = [found.constraints[i] for i in found.kept]
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
         symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)

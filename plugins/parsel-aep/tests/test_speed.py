@@ -549,8 +549,7 @@ def test_the_least_breaking_edit_is_the_one_ranking_them_all_gives(monkeypatch):
 
 def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
     """The joint pass solves its variants lazily (propagate.best_clusters); they must come
-    in the order of solving every variant and sorting them by score, and a variant keeping
-    every constraint must score as its sparse amounts do (0 error dropped)."""
+    in the order of solving every variant and sorting them by score."""
     from parsel_aep.propagate import Propagation
 
     lazy = Propagation.best_clusters
@@ -559,10 +558,6 @@ def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
     def both(self, state, variants):
         solved = [self.cluster_solve(state, *v) for v in variants]
         want = [(f.parts, f.score) for f in sorted((f for f in solved if f is not None), key=lambda f: f.score)]
-        for found in solved:
-            if found is not None and found.score[0] == 0:
-                errors = cluster.relation_errors(found.system, found.solution[0])
-                assert np.all(errors < found.system.allowances)
         calls = []
         real = self.cluster_solve
 
@@ -598,7 +593,7 @@ def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
     seen = {"corners": 0, "corners remembered": 0, "errors": 0, "errors remembered": 0}
 
     def corners(self, ops):
-        remembered = tuple(ops) in self._corners
+        remembered = tuple(map(id, ops)) in self._corners
         got = corners_of(self, ops)
         fresh = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
         assert got.keys() == fresh.keys()
@@ -619,3 +614,56 @@ def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
     monkeypatch.setattr(Propagation, "error", error)
     solve_fixtures()
     assert seen["corners remembered"] > 5 and seen["errors remembered"] > seen["errors"] / 2
+
+
+class Variant:
+    """A stand-in for a solved joint-pass cluster: a score, and sparse amounts that may fail."""
+
+    def __init__(self, score, fails=False):
+        self.score, self.fails = score, fails
+
+    @property
+    def solution(self):
+        if self.fails:
+            raise np.linalg.LinAlgError("SVD did not converge")
+        return None
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_lazy_variants_come_as_sorting_all_the_solvable_ones(seed):
+    """best_clusters against the eager rule on crafted scores: ties (with each other and with
+    an unsolved variant's bound), unsolvable variants (None), dropped constraints, and
+    clusters whose sparse amounts fail (left out, as if unsolved)."""
+    from parsel_aep.propagate import Propagation
+
+    rng = np.random.default_rng(seed)
+    variants = [([f"p{i}"], ["local", "world"][int(rng.integers(2))], bool(rng.integers(2))) for i in range(8)]
+    made = {}
+    for parts, frame, shears in variants:
+        kind = int(rng.integers(5))
+        dropped = int(rng.integers(1, 3))
+        score = (0, 0.0, shears, frame != "local") if kind < 2 else (dropped, float(rng.choice([0.5, 1.0])),
+                                                                      shears, frame != "local")
+        made[parts[0]] = None if kind == 2 else Variant(score, fails=kind == 3 and rng.random() < 0.5)
+
+    class Stub:
+        def __init__(self):
+            self.solves = []
+
+        def cluster_solve(self, state, parts, frame, shears):
+            self.solves.append(parts[0])
+            return made[parts[0]]
+
+    state = type("State", (), {"stats": {"time_s": {"screen": 0.0}}})()
+    stub = Stub()
+    ranked = Propagation.best_clusters(stub, state, variants)
+    got = list(itertools.islice(ranked, 1))
+    solved_for_first = len(stub.solves)
+    got += list(ranked)
+    want = sorted((v for v in made.values() if v is not None and not v.fails), key=lambda v: v.score)
+    assert [id(v) for v in got] == [id(v) for v in want]
+    assert len(stub.solves) == len(variants)
+    bound, index = min(((0, 0.0, s, f != "local"), i) for i, (_, f, s) in enumerate(variants))
+    lead = made[variants[index][0][0]]
+    if lead is not None and not lead.fails and lead.score == bound:  # it comes first, the rest unsolved
+        assert got[0] is lead and solved_for_first == 1

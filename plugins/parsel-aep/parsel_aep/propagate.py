@@ -76,6 +76,7 @@ HINTS = (*HINT_TYPES, "keep")
 #: errors, a run keeps: about 13 MB and 10 MB at most, on shapes of any size.
 _REMEMBERED_CORNERS = 70_000
 _REMEMBERED_ERRORS = 100_000
+_REMEMBERED_DIGESTS = 10_000
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
 BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
 
@@ -165,6 +166,15 @@ def _digest(array: np.ndarray) -> bytes:
     return digest.digest()
 
 
+def _frozen(array: np.ndarray) -> bool:
+    """Whether neither the array nor any array it views can be written."""
+    while isinstance(array, np.ndarray):
+        if array.flags.writeable:
+            return False
+        array = array.base
+    return array is None
+
+
 def validate_request(request: SolveRequest) -> None:
     """Unknown parts, relations or hint types are one-line errors naming them."""
     shape = request.shape
@@ -227,6 +237,7 @@ class Propagation:
         #: (:meth:`error`): the loop, the repair and the joint pass check the same states again.
         self._corners: dict[tuple, dict[str, np.ndarray]] = {}
         self._errors: dict[tuple, float] = {}
+        self._digests: dict[int, tuple[np.ndarray, bytes]] = {}
 
     # -- program bookkeeping -------------------------------------------------------
 
@@ -253,13 +264,25 @@ class Propagation:
         """:func:`relation_error`, remembered by what it reads: the members' corners (by a
         128-bit digest) and which of them slide. Between two checks of the whole shape only
         the relations of the parts edited since are evaluated again."""
-        key = (relation.id, *((m in sliding, _digest(np.asarray(corners[m]))) for m in relation.members))
+        key = (relation.id, *((m in sliding, self.digest(np.asarray(corners[m]))) for m in relation.members))
         error = self._errors.get(key)
         if error is None:
             if len(self._errors) >= _REMEMBERED_ERRORS:
                 self._errors.clear()
             error = self._errors[key] = relation_error(relation, corners, sliding)
         return error
+
+    def digest(self, array: np.ndarray) -> bytes:
+        """:func:`_digest`, made once for an array nothing can write (the remembered
+        corners and views of them), which is kept with it so its identity stays its own."""
+        if not _frozen(array):
+            return _digest(array)
+        known = self._digests.get(id(array))
+        if known is None or known[0] is not array:
+            if len(self._digests) >= _REMEMBERED_DIGESTS:
+                self._digests.clear()
+            known = self._digests[id(array)] = (array, _digest(array))
+        return known[1]
 
     def broken(self, state: _State, corners: Mapping[str, np.ndarray]) -> list[Relation]:
         sliding = sliding_members(self.shape, self.program(state.ops))

@@ -274,28 +274,37 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     rotations = [(i, op) for i, op in enumerate(candidates) if isinstance(op, Rotate)]
     k = r0.shape[-1]
     fresh = new([op for _, op in affine])
+    slope = None
     if fresh:
-        for op, row in zip(fresh, residual_at(fresh, 1.0) - base):
+        slope = residual_at(fresh, 1.0) - base
+        for op, row in zip(fresh, slope):
             known[id(op)] = (op, row)
-    slope = np.array([known[id(op)][1] for _, op in affine]) if affine else np.zeros((0, k))
+    if len(fresh) < len(affine):  # (all fresh: the rows just made, in order)
+        slope = np.array([known[id(op)][1] for _, op in affine])
+    elif not affine:
+        slope = np.zeros((0, k))
     fresh = new([op for _, op in rotations])
+    offset = matrix = None
     if fresh:
         ops = _Batch(fresh)
         at0, at90, at180 = (residual_at(ops, angle) for angle in (0.0, np.pi / 2, np.pi))
-        offsets = (at0 - at180) / 2
-        for op, offset_row, matrix_row in zip(fresh, offsets, np.stack([offsets, at90 - (at0 + at180) / 2], axis=-1)):
+        offset = (at0 - at180) / 2
+        matrix = np.stack([offset, at90 - (at0 + at180) / 2], axis=-1)
+        for op, offset_row, matrix_row in zip(fresh, offset, matrix):
             known[id(op)] = (op, (offset_row, matrix_row))
-    if rotations:
+    if len(fresh) < len(rotations):
         offset = np.array([known[id(op)][1][0] for _, op in rotations])
         matrix = np.array([known[id(op)][1][1] for _, op in rotations])
-    else:
+    elif not rotations:
         offset, matrix = np.zeros((0, k)), np.zeros((0, k, 2))
-    compounds = []
-    for i, compound in enumerate(candidates):
-        if isinstance(compound, Compound):
-            if new([compound]):
-                known[id(compound)] = (compound, residual_at(list(compound.basis), 1.0) - base)
-            compounds.append((i, compound, known[id(compound)][1]))
+    listed = [(i, c) for i, c in enumerate(candidates) if isinstance(c, Compound)]
+    fresh = new([c for _, c in listed])
+    if fresh:  # every new compound's basis in one evaluation
+        rows = residual_at([op for c in fresh for op in c.basis], 1.0) - base
+        ends = np.cumsum([len(c.basis) for c in fresh])
+        for c, start, end in zip(fresh, ends - [len(c.basis) for c in fresh], ends):
+            known[id(c)] = (c, rows[start:end])
+    compounds = [(i, c, known[id(c)][1]) for i, c in listed]
     return _System([r.id for r in constraints], slices, affine, r0, slope, rotations, matrix, offset, compounds,
                    np.array([r.allowance(0.0) for r in constraints]))
 

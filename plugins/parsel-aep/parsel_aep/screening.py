@@ -386,12 +386,14 @@ def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
             residual -= system.offset[rows, None, :]
             errors = _max_abs_per_slice(residual, system.slices)
             blocks.append(_Block("rotation", rows, f_all, errors, ~(errors < allowed)))
-        for j, (_, _, slopes) in enumerate(system.compounds or ()):
-            f = _compound_amounts(system.r0, slopes, columns)                          # (S, B)
-            residual = system.r0 + f @ slopes
-            errors = relation_max_errors(residual[None], system.slices)
-            if np.all(np.isfinite(errors)):
-                blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
+        if system.compounds:
+            amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]  # (S, B)
+            residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
+            every = relation_max_errors(residuals, system.slices)                      # (C, R) at once
+            for j, f in enumerate(amounts):
+                errors = every[j:j + 1]
+                if np.all(np.isfinite(errors)):
+                    blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
     return ScreenTable(system, blocks, per_constraint)
 
 

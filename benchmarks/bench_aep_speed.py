@@ -11,7 +11,9 @@ both alike; each request's CPU time is ``time.process_time`` inside its worker.
 For every request the program's JSON text, the rejected relations and the solver's
 counts (its stats without times) must be byte-for-byte the same in both; any difference
 is listed (with, for programs of the same ops, the largest difference of the amounts at
-the samples) and the exit status is 1.
+the samples) and the exit status is 1. Counts of work done (``WORK_COUNTS``: candidates
+screened, searches proved hopeless without screening) may differ; their totals are
+printed at the end.
 
     python benchmarks/bench_aep_speed.py [--baseline REV] [--random 40] [--designer 40]
         [--no-properties] [--save DIR] [--only LABEL-SUBSTRING]
@@ -194,6 +196,17 @@ def amount_difference(old: str, new: str) -> str:
     return f"same ops, largest parameter/amount difference {worst:.3g}"
 
 
+#: Solver counts of work done, not of what was decided: compared as totals only.
+WORK_COUNTS = ("candidates_screened", "hopeless_searches")
+
+
+def decided(result: dict) -> dict:
+    """The result without its counts of work done."""
+    if "stats" not in result:
+        return result
+    return {**result, "stats": {k: v for k, v in result["stats"].items() if k not in WORK_COUNTS}}
+
+
 def digest(result: dict) -> str:
     return hashlib.sha256(json.dumps(result, sort_keys=True).encode()).hexdigest()[:16]
 
@@ -229,6 +242,7 @@ def main() -> None:
             sides.insert(0, Worker("old", baseline_tree(args.baseline, Path(tmp))))
         times: dict[str, list[float]] = {w.name: [] for w in sides}
         mismatches = []
+        work: dict[str, dict[str, int]] = {}
         if args.save:
             args.save.mkdir(parents=True, exist_ok=True)
         for i, case in enumerate(todo):
@@ -249,8 +263,12 @@ def main() -> None:
                     answers["old"] = {"seconds": float("nan"), "result": json.loads(saved.read_text())}
             line = "  ".join(f"{name} {answers[name]['seconds']:7.3f}s" for name in answers)
             same = ""
+            for name, answer in answers.items():
+                for count in WORK_COUNTS:
+                    work.setdefault(name, dict.fromkeys(WORK_COUNTS, 0))[count] += \
+                        answer["result"].get("stats", {}).get(count, 0)
             if len(answers) == 2:
-                old, new = answers["old"]["result"], answers["new"]["result"]
+                old, new = decided(answers["old"]["result"]), decided(answers["new"]["result"])
                 if old == new:
                     same = "same"
                 else:
@@ -260,13 +278,16 @@ def main() -> None:
                         detail = amount_difference(old["program"], new["program"])
                     same = f"DIFFERENT ({', '.join(why)}) {detail}"
                     mismatches.append((case["label"], same))
-            print(f"{i:3d} {case['label']:<52} {line}  {digest(answers['new']['result'])}  {same}", flush=True)
+            print(f"{i:3d} {case['label']:<52} {line}  {digest(decided(answers['new']['result']))}  {same}",
+                  flush=True)
         for w in sides:
             w.close()
     print()
     for name, t in times.items():
         print(f"{name}: {len(t)} requests, CPU median {statistics.median(t):.3f} s, p95 {percentile(t, 0.95):.3f} s, "
               f"max {max(t):.3f} s, total {sum(t):.1f} s")
+    for name, counts in work.items():
+        print(f"{name}: work " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     if len(times) == 2 or args.reference:
         print(f"identical: {len(todo) - len(mismatches)}/{len(todo)}")
         for label, why in mismatches:

@@ -31,6 +31,7 @@ import numpy as np
 
 from parsel_aep import cluster as cluster_module
 from parsel_aep import factor as factor_module
+from parsel_aep import feasibility
 from parsel_aep.candidates import (
     HINT_TYPES,
     SIMPLICITY,
@@ -407,6 +408,18 @@ class Propagation:
             if not improved:
                 return
 
+    def hopeless(self, ops: Sequence[EditOp], part: str, constraints: Sequence[Relation],
+                 corners: Mapping[str, np.ndarray]) -> bool:
+        """Whether no edit of ``part`` can keep the ``constraints`` that every stage of a
+        search for a valid edit screens exactly (feasibility.py): those with no member of a
+        re-laid-out group and no face contact (faces may slide)."""
+        sliding = sliding_members(self.shape, self.program(ops)) - {part}
+        firm = [r for r in constraints if not set(r.members) & sliding
+                and not (isinstance(r, Attachment) and r.contact == "face")]
+        others = {m: corners[m] for r in firm for m in r.members if m != part}
+        allowances = np.array([max(self.tolerance, r.allowance(0.0)) for r in firm])
+        return feasibility.no_edit_keeps(part, self.rest[part], others, firm, allowances)
+
     def joint_repair(self, state: _State) -> None:
         """Re-solve the parts around the relations still broken together (cluster.py).
 
@@ -744,6 +757,13 @@ class Propagation:
         exact = [r for r in constraints if not set(r.members) & sliding] or constraints
         soft = [r for r in constraints if r not in exact]
         others = {m: corners[m] for r in exact for m in r.members if m not in rest}
+        # When no edit of the part can keep the constraints every stage screens exactly
+        # (feasibility.py), no stage finds a valid edit: only a breaking-edit may follow.
+        hopeless = moving == (operand,) and self.hopeless(state.ops, operand, constraints, corners)
+        if hopeless:
+            state.stats["hopeless_searches"] = state.stats.get("hopeless_searches", 0) + 1
+            if not (self.options.breaking and breaking):
+                return None
         check = self.sliding_check(corners, rest, soft, sliding)
         memo: dict = {}  # candidates' residual rows, screened again by the fallbacks below
         own = own_candidates(operand, hexahedron, hint)
@@ -755,25 +775,29 @@ class Propagation:
             if outright is not None:
                 state.stats["nhbd_edits"] += 1
                 return outright, ()
-        spanning = {id(op) for op in copies if self.spans(op, self.copy_sources[id(op)])}
-        found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check, memo=memo,
-                                     preferred={id(op) for op in copies}, spanning=spanning)
+        found = None
+        if not hopeless:
+            spanning = {id(op) for op in copies if self.spans(op, self.copy_sources[id(op)])}
+            found = self.screen_and_pick(state, own + copies, rest, others, exact, check=check, memo=memo,
+                                         preferred={id(op) for op in copies}, spanning=spanning)
         if found is not None and any(found[0].op is op for op in copies):
             state.stats["nhbd_edits"] += 1
         extra: list = []
         if found is None and self.options.nhbd:
             extra = self.neighbour_candidates(state, operand, moving, hexahedron, hint)
-            found = self.screen_and_pick(state, extra, rest, others, exact, check=check, memo=memo)
+            if not hopeless:
+                found = self.screen_and_pick(state, extra, rest, others, exact, check=check, memo=memo)
             if found is None:
                 # Parameters read off the constraints themselves: a scaling about the origin
                 # that keeps both ends of a spanning part, a translation in any direction.
                 compounds = compound_candidates(operand, hexahedron, directions(hexahedron), hint)
-                found = self.screen_and_pick(state, compounds, rest, others, exact, check=check, memo=memo)
+                if not hopeless:
+                    found = self.screen_and_pick(state, compounds, rest, others, exact, check=check, memo=memo)
                 extra = extra + compounds
             if found is not None:
                 state.stats["nhbd_edits"] += 1
         faces = [r for r in exact if isinstance(r, Attachment) and r.contact == "face"]
-        if found is None and faces and len(faces) < len(exact):
+        if found is None and faces and len(faces) < len(exact) and not hopeless:
             # Faces in contact may slide along each other (report.relation_error): keep the
             # other constraints exactly and check the faces as sliding contacts.
             firm = [r for r in exact if r not in faces]

@@ -22,12 +22,14 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from parsel_aep.screening import _residuals, _residuals_and_slices
 from parsel_core.relations import Relation
 
 #: The certificate must beat ``|y|_1`` by this factor: screening's rounding and the
 #: least-squares solve's never come near it.
 MARGIN = 1.01
-#: Reweighted least-squares passes per sample, and samples tried (those the edit moves most).
+#: Reweighted least-squares passes per sample, and samples tried (those where the part at
+#: rest is furthest from its constraints).
 ITERATIONS = 4
 SAMPLES = 3
 
@@ -68,16 +70,12 @@ def no_edit_keeps(part: str, rest: np.ndarray, others: Mapping[str, np.ndarray],
         return False
     first = {m: c[0] for m, c in others.items()}
     unit = np.eye(24).reshape(24, 8, 3)
-
-    def residuals(view):
-        return [np.asarray(r.residual(view), dtype=float) for r in constraints]
-
-    at_rest = residuals({**first, part: rest})
-    allowed = np.concatenate([np.full(block.shape[-1], limit) for block, limit in zip(at_rest, allowances)])
-    moved = np.concatenate(residuals({**{m: c[None] for m, c in first.items()}, part: rest[None] + unit}), axis=-1)
-    jacobian = (moved - np.concatenate(at_rest)).T                                        # (K, 24)
+    at_rest, slices = _residuals_and_slices(constraints, {**first, part: rest})
+    allowed = np.concatenate([np.full(s.stop - s.start, limit) for s, limit in zip(slices, allowances)])
+    moved = _residuals(constraints, {**{m: c[None] for m, c in first.items()}, part: rest[None] + unit})
+    jacobian = (moved - at_rest).T                                                       # (K, 24)
     samples = len(next(iter(others.values()))) if others else 1
-    r0 = np.concatenate(residuals({**others, part: np.broadcast_to(rest, (samples, 8, 3))}), axis=-1)
+    r0 = _residuals(constraints, {**others, part: np.broadcast_to(rest, (samples, 8, 3))})
     r0 = np.broadcast_to(r0, (samples, len(allowed)))                                    # (S, K)
     if not (np.all(np.isfinite(jacobian)) and np.all(np.isfinite(r0))):
         return False

@@ -408,12 +408,11 @@ class Propagation:
             if not improved:
                 return
 
-    def hopeless(self, ops: Sequence[EditOp], part: str, constraints: Sequence[Relation],
-                 corners: Mapping[str, np.ndarray]) -> bool:
+    def hopeless(self, part: str, constraints: Sequence[Relation], corners: Mapping[str, np.ndarray],
+                 sliding: set[str]) -> bool:
         """Whether no edit of ``part`` can keep the ``constraints`` that every stage of a
         search for a valid edit screens exactly (feasibility.py): those with no member of a
-        re-laid-out group and no face contact (faces may slide)."""
-        sliding = sliding_members(self.shape, self.program(ops)) - {part}
+        re-laid-out group (``sliding``) and no face contact (faces may slide)."""
         firm = [r for r in constraints if not set(r.members) & sliding
                 and not (isinstance(r, Attachment) and r.contact == "face")]
         others = {m: corners[m] for r in firm for m in r.members if m != part}
@@ -759,7 +758,7 @@ class Propagation:
         others = {m: corners[m] for r in exact for m in r.members if m not in rest}
         # When no edit of the part can keep the constraints every stage screens exactly
         # (feasibility.py), no stage finds a valid edit: only a breaking-edit may follow.
-        hopeless = moving == (operand,) and self.hopeless(state.ops, operand, constraints, corners)
+        hopeless = moving == (operand,) and self.hopeless(operand, constraints, corners, sliding)
         if hopeless:
             state.stats["hopeless_searches"] = state.stats.get("hopeless_searches", 0) + 1
             if not (self.options.breaking and breaking):
@@ -1053,12 +1052,12 @@ class Propagation:
         at the end of the range."""
         energy = np.zeros(len(pool))
         counts = np.zeros(len(pool))
-        ops = [s.op for s in pool if s.kind != "compound"]
-        amounts = [float(s.f[-1]) for s in pool if s.kind != "compound"]
+        plain = [i for i, s in enumerate(pool) if s.kind != "compound"]
         compound = [i for i, s in enumerate(pool) if s.kind == "compound"]
+        ops, amounts = [pool[i].op for i in plain], [float(pool[i].f[-1]) for i in plain]
         for corners in rest.values():
             edited = np.empty((len(pool), 8, 3))
-            edited[[i for i, s in enumerate(pool) if s.kind != "compound"]] = apply_each(ops, corners, amounts)
+            edited[plain] = apply_each(ops, corners, amounts)
             for i in compound:
                 edited[i] = pool[i].op.apply(corners, pool[i].f[-1], np)
             energy += arap_energies(corners, edited)

@@ -82,9 +82,10 @@ def apply_each(ops: Sequence[EditOp], rest: np.ndarray, amounts: Sequence[float]
     batched (products and sums, element by element the same); rotations, whose batched
     sines and cosines may round differently from one angle's, are applied one by one."""
     amounts = np.asarray(amounts, dtype=float)
-    linear = [i for i, op in enumerate(ops) if type(op) in _BATCHED and type(op) is not Rotate]
+    batched = [type(op) in _BATCHED and type(op) is not Rotate for op in ops]
+    linear = [i for i, b in enumerate(batched) if b]
     out = np.empty((len(ops), 8, 3))
-    for i in sorted(set(range(len(ops))) - set(linear)):
+    for i in (i for i, b in enumerate(batched) if not b):
         out[i] = ops[i].apply(rest, float(amounts[i]), np)
     if linear:
         batch = _Batch([ops[i] for i in linear])
@@ -302,8 +303,8 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     if fresh:  # every new compound's basis in one evaluation
         rows = residual_at([op for c in fresh for op in c.basis], 1.0) - base
         ends = np.cumsum([len(c.basis) for c in fresh])
-        for c, start, end in zip(fresh, ends - [len(c.basis) for c in fresh], ends):
-            known[id(c)] = (c, rows[start:end])
+        for c, end in zip(fresh, ends):
+            known[id(c)] = (c, rows[end - len(c.basis):end])
     compounds = [(i, c, known[id(c)][1]) for i, c in listed]
     return _System([r.id for r in constraints], slices, affine, r0, slope, rotations, matrix, offset, compounds,
                    np.array([r.allowance(0.0) for r in constraints]))

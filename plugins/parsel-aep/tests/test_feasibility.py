@@ -69,10 +69,10 @@ def test_searches_proved_hopeless_find_no_valid_edit(monkeypatch):
     hopeless_of, search_of = Propagation.hopeless, Propagation.search
     checked = []
 
-    def hopeless(self, ops, part, constraints, corners):
-        found = hopeless_of(self, ops, part, constraints, corners)
+    def hopeless(self, part, constraints, corners, sliding):
+        found = hopeless_of(self, part, constraints, corners, sliding)
         if found and not getattr(self, "_checking", False):
-            state = propagate_module._State(list(ops), set(), stats=copy.deepcopy(self._state.stats))
+            state = propagate_module._State(list(self._state.ops), set(), stats=copy.deepcopy(self._state.stats))
             self._checking = True
             try:
                 search_of(self, state, part, (part,), constraints, corners, breaking=False)

@@ -225,6 +225,8 @@ class _Numerics:
         self.solved: dict = {}
         self.factored: dict = {}
         self.seen: set = set()
+        #: Solves whose matrix was proved to have full column rank (:func:`_conditioned_lstsq`).
+        self.conditioned: set = set()
         self.exact = _Numerics(system, fast=False) if fast else self
 
     def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
@@ -248,11 +250,21 @@ class _Numerics:
                                  self.system.r0[:, columns].T, rows)                     # (K', S)
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             with one_blas_thread():
-                y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+                y = _conditioned_lstsq(a / norm, b)
+                if y is None:
+                    y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+                else:
+                    self.conditioned.add(key)
             out = np.zeros((len(p), b.shape[1]))
             out[live] = p[live, None] * y / norm
             out = self.solved[key] = -out.T
         return out
+
+    def determined(self, columns: np.ndarray, rows: np.ndarray | None) -> bool:
+        """Whether the kept constraints determine every live amount: the fast solve with the
+        default prior on these columns and rows was proved to have full column rank."""
+        key = (columns.tobytes(), None if rows is None else rows.tobytes(), _prior(self.system).tobytes())
+        return self.fast and key in self.conditioned
 
     def compressed(self, columns: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
         """``(R, Q^T b)`` of the weighted system ``A = Q R`` (K' x B, K' well above B) on these
@@ -333,6 +345,40 @@ def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float) ->
     if np.any(np.abs(s - cutoff) <= margin * cutoff) or not np.all(np.isfinite(y)):
         raise _Borderline
     return y
+
+
+#: Smallest singular value over the largest that :func:`_conditioned_lstsq` proves; far
+#: above pinv's cutoff (1e-9), so the problem has full rank and the cutoff cannot act.
+CONDITIONED = 1e-5
+
+
+def _conditioned_lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """``np.linalg.pinv(a, 1e-9) @ b`` for a tall ``a`` proved well conditioned, by the
+    normal equations with one step of refinement (the corrected semi-normal equations),
+    or ``None`` when the proof fails.
+
+    The joint systems are tall and sparse, so the Gram matrix ``G = a^T a`` costs a
+    fraction of the SVD that ``lstsq`` makes. A Cholesky factorisation of ``G - d I``
+    with ``d = CONDITIONED^2 |G|_1 >= CONDITIONED^2 s_max^2`` exists only when
+    ``s_min >= CONDITIONED s_max`` (up to rounding of order ``n u s_max^2``, far below
+    ``d``): then ``a`` has full column rank, its least-squares solution is unique and
+    the refined normal equations give it to a relative ``~cond(a) u`` (Bjorck, *Numerical
+    Methods for Least Squares Problems*, 6.6.5), like the SVD does.
+    """
+    m, n = a.shape
+    if m < n or n == 0:
+        return None
+    g = a.T @ a
+    top = min(float(np.trace(g)), float(np.abs(g).sum(axis=1).max()))
+    if not (np.isfinite(top) and top > 0):
+        return None
+    try:
+        np.linalg.cholesky(g - (CONDITIONED * CONDITIONED * top) * np.eye(n))
+        y = np.linalg.solve(g, a.T @ b)
+        y += np.linalg.solve(g, a.T @ (b - a @ y))
+    except np.linalg.LinAlgError:
+        return None
+    return y if np.all(np.isfinite(y)) else None
 
 
 def _sparse_breaks(system: ClusterSystem, iterations: int = 12, numerics: _Numerics | None = None) -> list[int]:
@@ -452,7 +498,10 @@ def _focuss(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iteration
     g = np.abs(f * c).max(axis=0)
     if not numerics.positive(g.max(), columns):
         return None
-    for _ in range(iterations):
+    # With full column rank the least-squares amounts are unique: reweighting the prior
+    # (which only chooses among equally good solutions) gives ``f`` back at every step,
+    # up to rounding and to pinv's cutoff, far below the thresholds' margins.
+    for _ in range(0 if numerics.determined(columns, rows) else iterations):
         f = numerics.amounts(columns, rows, prior=np.sqrt(np.maximum(g, 1e-12 * g.max())) * base)
         g = np.abs(f * c).max(axis=0)
         if not numerics.positive(g.max(), columns):

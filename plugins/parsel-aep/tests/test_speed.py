@@ -6,6 +6,7 @@ the joint pass remembers the systems it has solved; none of these may change a p
 (benchmarks/bench_aep_speed.py checks whole programs against a baseline revision).
 """
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -415,6 +416,50 @@ def test_guarded_lstsq_refuses_a_singular_value_at_the_cutoff():
         cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
     a = u @ np.diag([1.0, 0.5, 1e-3, 1e-7]) @ v.T
     assert np.allclose(cluster._guarded_lstsq(a, b, 1e-9, 1e-4), np.linalg.pinv(a, rcond=1e-9) @ b, rtol=1e-6)
+
+
+@pytest.mark.parametrize("shape", [(40, 12), (300, 60), (12, 12)])
+def test_conditioned_lstsq_is_the_least_squares_solution(shape):
+    rng = np.random.default_rng(shape[0])
+    a = rng.normal(size=shape) * (rng.random(shape) < 0.3) + np.eye(*shape)  # sparse, full column rank
+    b = rng.normal(size=(shape[0], 17))
+    got = cluster._conditioned_lstsq(a, b)
+    want = np.linalg.lstsq(a, b, rcond=1e-9)[0]
+    assert got is not None and np.allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
+
+
+def test_conditioned_lstsq_declines_what_it_cannot_prove():
+    rng = np.random.default_rng(2)
+    u, _ = np.linalg.qr(rng.normal(size=(30, 6)))
+    v, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    b = rng.normal(size=(30, 3))
+    assert cluster._conditioned_lstsq(u @ np.diag([1, 1, 1, 1, 1, 1e-3]) @ v.T, b) is not None
+    for smallest in (1e-7, 1e-12, 0.0):  # near or at pinv's cutoff: left to the SVD
+        assert cluster._conditioned_lstsq(u @ np.diag([1, 1, 1, 1, 1, smallest]) @ v.T, b) is None
+    assert cluster._conditioned_lstsq(rng.normal(size=(4, 6)), rng.normal(size=(4, 3))) is None  # wide
+    assert cluster._conditioned_lstsq(np.zeros((30, 6)), b) is None
+    assert cluster._conditioned_lstsq(np.full((30, 6), np.nan), b) is None
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_determined_amounts_give_the_reweighted_sparse_prior(seed):
+    """FOCUSS's reweighting is skipped when the kept constraints determine every amount
+    (fast numerics proved full column rank); its prior is then the one reweighting gives."""
+    rng = np.random.default_rng(seed)
+    system = random_system(rng, parts=2, constraints=40, rank_loss=seed % 2)
+    f_true = rng.normal(size=len(system.weights)) * (rng.random(len(system.weights)) < 0.5)  # few amounts needed
+    system = dataclasses.replace(system, r0=-np.linspace(0, 1, 5)[:, None] * f_true @ system.slopes, solved={})
+    kept = list(range(len(system.constraints)))
+    columns, rows = cluster._columns(system, kept), cluster._row_weights(system, kept)
+    fast = cluster._Numerics(system, fast=True)
+    f = fast.amounts(columns, rows)
+    assert fast.determined(columns, rows) == (seed % 2 == 0)  # a repeated amount: not determined
+    exact = cluster._Numerics(fresh_copy(system), fast=False)
+    want = cluster._focuss(system, kept, exact.amounts(columns, rows), 12, exact)
+    got = cluster._sparse_prior(system, kept, f, 12, fast)
+    assert (got is None) == (want is None)
+    assert want is not None and 0 < np.count_nonzero(want) < len(want)
+    assert got.tobytes() == want.tobytes()
 
 
 def test_fast_amounts_agree_with_the_exact_solver():

@@ -29,9 +29,11 @@ from typing import Any
 
 import numpy as np
 
+from parsel_aep import breaking as breaking_module
 from parsel_aep import cluster as cluster_module
 from parsel_aep import factor as factor_module
 from parsel_aep import feasibility
+from parsel_aep.breaking import BreakingTable, breaking_table
 from parsel_aep.candidates import (
     HINT_TYPES,
     SIMPLICITY,
@@ -52,7 +54,6 @@ from parsel_aep.derive import (
 )
 from parsel_aep.screening import (
     Screened,
-    ScreenTable,
     apply_each,
     compound_solver,
     residual_slices,
@@ -1000,17 +1001,17 @@ class Propagation:
                         spanning: set[int] = frozenset(), memo: dict | None = None
                         ) -> tuple[Screened, tuple[str, ...]] | None:
         clock = time.perf_counter()
-        table = screen_table(candidates, rest, others, constraints, self.tolerance, per_constraint=breaking,
-                             memo=memo, valid_only=not breaking)
-        state.stats["time_s"]["screen"] += time.perf_counter() - clock
         state.stats["candidates_screened"] += len(candidates)
         if breaking:
             # The edit that breaks the constraints least, by the size of the errors it
             # leaves, not their number: a stretch that misses six contacts by 0.001 beats a
             # slide that tears three off by 0.9.
-            rows = table.order[(table.nbroken[table.order] < len(constraints)) & np.isfinite(table.cost[table.order])]
-            best = self.least_breaking(table, rows, rest)
+            lazy = breaking_table(candidates, rest, others, constraints, self.tolerance, memo=memo)
+            state.stats["time_s"]["screen"] += time.perf_counter() - clock
+            best = self.least_breaking(lazy, len(constraints), rest)
             return (best, best.broken) if best is not None else None
+        table = screen_table(candidates, rest, others, constraints, self.tolerance, memo=memo, valid_only=True)
+        state.stats["time_s"]["screen"] += time.perf_counter() - clock
         pool = [table.screened(i) for i in table.order[table.nbroken[table.order] == 0]]
         state.stats["candidates_valid"] += len(pool)
         if not pool:
@@ -1019,31 +1020,14 @@ class Propagation:
         best = check(ranked) if check is not None else ranked[0] if ranked else None
         return (best, best.broken) if best is not None else None
 
-    def least_breaking(self, table: ScreenTable, rows: np.ndarray, rest: Mapping[str, np.ndarray]
+    def least_breaking(self, table: BreakingTable, constraints: int, rest: Mapping[str, np.ndarray]
                        ) -> Screened | None:
-        """The breaking-edit to take among the screened ``rows`` of ``table``: the best ranked
-        (:meth:`rank`) of those whose total error is within 1% of the least among the edits
-        that are not too distorting.
-
-        Breaking-edits come one per candidate and constraint, thousands of them; only those
-        near the least error need ranking, so energies are computed in order of error
-        until the first acceptable one fixes that least error (the same choice as ranking
-        them all)."""
-        pool = rows[table.finite[rows]]
-        order = pool[np.argsort(table.cost[pool], kind="stable")]
-        least = None
-        for start in range(0, len(order), 16):
-            chunk = [table.screened(i) for i in order[start:start + 16]]
-            energy, _ = self._distortion(chunk, rest, planes=False)
-            acceptable = np.flatnonzero(~(energy > HIGH_DISTORTION))
-            if acceptable.size:
-                least = chunk[int(acceptable[0])].cost
-                break
-        if least is None:
-            return None
-        near = pool[table.cost[pool] <= least * 1.01 + self.tolerance]
-        ranked = self.rank([table.screened(i) for i in near], rest)
-        return ranked[0] if ranked else None
+        """The breaking-edit to take (breaking.least_breaking): the best ranked (:meth:`rank`)
+        of those whose total error is within 1% of the least among the edits that are not
+        too distorting."""
+        return breaking_module.least_breaking(
+            table, constraints, lambda chunk: self._distortion(chunk, rest, planes=False)[0],
+            lambda pool: self.rank(pool, rest), self.tolerance, HIGH_DISTORTION)
 
     @staticmethod
     def _distortion(pool: list[Screened], rest: Mapping[str, np.ndarray], planes: bool = True

@@ -240,7 +240,9 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
     (searches for valid candidates) stops checking a candidate at its first broken
     constraint; every valid row, every row of breaking-edit screening, their order, broken
     ids and error totals must be those of screening every candidate afresh and making them
-    all, and every other row must still count as broken."""
+    all, and every other row must still count as broken. (Searches screen breaking-edits
+    lazily, breaking.py; each search's candidates are also screened for breaking-edits
+    here.)"""
     from parsel_aep import propagate as propagate_module
 
     table_of = screening.screen_table
@@ -248,6 +250,9 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
 
     def both(candidates, moving, others, constraints, tolerance, per_constraint=False, memo=None,
              valid_only=False):
+        if not per_constraint:
+            apart = {key: dict(rows) for key, rows in (memo or {}).items()}  # (its rows stay its own)
+            both(candidates, moving, others, constraints, tolerance, True, apart)
         known = {key for rows in (memo or {}).values() for key in rows if key is not None}
         reused = any(id(op) in known for op in candidates)
         table = table_of(candidates, moving, others, constraints, tolerance, per_constraint, memo, valid_only)
@@ -566,30 +571,65 @@ def test_neighbour_candidates_keep_the_borrowed_ops_first():
         assert got == want and [type(op) for op in got] == [type(op) for op in want]
 
 
-def test_the_least_breaking_edit_is_the_one_ranking_them_all_gives(monkeypatch):
-    """Breaking-edits are ranked lazily (only those near the least error); the choice must
-    be the one ranking every screened edit gives: the best ranked within 1% of the least
-    error among the edits that are not too distorting."""
+def eager_least_breaking(self, table, constraints, rest):
+    """The choice of a breaking-edit as first written: every row screened and ranked, the
+    best ranked within 1% of the least error among the edits not too distorting."""
+    rows = table.order[(table.nbroken[table.order] < constraints) & np.isfinite(table.cost[table.order])]
+    ranked = self.rank([table.screened(i) for i in rows], rest)
+    if not ranked:
+        return None
+    least = min(s.cost for s in ranked)
+    return next(s for s in ranked if s.cost <= least * 1.01 + self.tolerance)
+
+
+def test_breaking_edits_screened_lazily_are_those_of_screening_every_row(monkeypatch):
+    """Breaking-edit searches bound every row's errors and evaluate only the rows the choice
+    reads (breaking.py). Every bound must be at most the row's cost, every evaluated row
+    must be bitwise the eager table's (screen_table with per_constraint), in its order,
+    and the choice must be the one ranking every screened row gives; most rows are never
+    evaluated."""
+    from parsel_aep import breaking
+    from parsel_aep import propagate as propagate_module
     from parsel_aep.propagate import Propagation
 
-    lazy = Propagation.least_breaking
-    compared = []
+    made = []
+    table_of = breaking.breaking_table
 
-    def both(self, table, rows, rest):
-        results = [table.screened(i) for i in rows]
-        ranked = self.rank(results, rest)
-        full = None
-        if ranked:
-            least = min(s.cost for s in ranked)
-            full = next(s for s in ranked if s.cost <= least * 1.01 + self.tolerance)
-        got = lazy(self, table, rows, rest)
-        assert got is full
-        compared.append(len(results))
+    def recorded(candidates, moving, others, constraints, tolerance, memo=None):
+        table = table_of(candidates, moving, others, constraints, tolerance, memo)
+        eager = screening.screen_table(candidates, moving, others, constraints, tolerance, per_constraint=True)
+        made.append((table, eager))
+        return table
+
+    lazy = Propagation.least_breaking
+    seen = {"searches": 0, "rows": 0, "evaluated": 0}
+
+    def both(self, table, constraints, rest):
+        eager = made[-1][1]
+        want = eager_least_breaking(self, eager, constraints, rest)
+        got = lazy(self, table, constraints, rest)
+        assert (got is None) == (want is None)
+        if want is not None:
+            assert same_screened(got, want)
+        seen["searches"] += 1
+        seen["rows"] += len(table.index)
+        seen["evaluated"] += int(table.known.sum())
+        # every row, evaluated now, is the eager table's, in the same order
+        assert table.bound.shape == table.cost.shape
+        table.evaluate(np.arange(len(table.index)))
+        assert np.all(table.bound[table.finite] <= table.cost[table.finite])
+        order = np.lexsort((table.generated, table.nbroken, table.index))
+        assert order.tobytes() == eager.order.tobytes()
+        for i in eager.order:
+            assert same_screened(table.screened(i), eager.screened(i))
+            assert table.nbroken[i] == eager.nbroken[i] and table.cost[i] == eager.cost[i]
         return got
 
+    monkeypatch.setattr(propagate_module, "breaking_table", recorded)
     monkeypatch.setattr(Propagation, "least_breaking", both)
     solve_fixtures()
-    assert compared and max(compared) > 16  # several chunks of breaking-edits were ranked
+    assert seen["searches"] >= 3 and seen["rows"] > 1000
+    assert seen["evaluated"] < 0.5 * seen["rows"]
 
 
 def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):

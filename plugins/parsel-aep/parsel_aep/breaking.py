@@ -1,0 +1,250 @@
+"""Breaking-edits screened lazily: bounds for every row, exact errors for the few the choice reads.
+
+When no candidate keeps every constraint, a search solves each candidate's amount from
+each constraint alone and measures all the constraints under it (paper 5.3.1): one row
+per candidate and constraint, each with errors at every sample. The search then takes
+the least total error among the edits that are not too distorting and ranks the edits
+within 1% of it (:func:`least_breaking`); a row in a hundred comes that near.
+
+So every row's errors are first bounded below by their values at the last sample (the
+end of the range, where edits move most: one sample's residual instead of all of them),
+which bounds its total error, and exact errors are computed only for rows whose bound
+could place them among those the choice reads. The rows, their exact errors and the
+choice are those of screening every row (:func:`~parsel_aep.screening.screen_table`
+with ``per_constraint``), to the bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from parsel_aep.screening import (
+    Screened,
+    ScreenTable,
+    _affine_amounts,
+    _Block,
+    _compound_amounts,
+    _max_abs_per_slice,
+    _rotation_amounts_batch,
+    _System,
+    _system,
+    relation_max_errors,
+    slice_maxima,
+)
+from parsel_core.ops import EditOp
+from parsel_core.relations import Relation
+
+#: Rows whose exact errors are computed together, at first (doubling as more are needed).
+_FIRST_BATCH = 64
+#: Breaking-edits whose distortion is measured together, least error first.
+_CHUNK = 16
+
+
+class BreakingTable(ScreenTable):
+    """:func:`~parsel_aep.screening.screen_table` with ``per_constraint``, its rows'
+    errors computed on :meth:`evaluate`; :attr:`bound` holds a lower bound of every row's
+    :attr:`cost` until then. :attr:`nbroken`, :attr:`cost` and :meth:`screened` are
+    those of the eager table for evaluated rows."""
+
+    def __init__(self, system: _System | None, blocks: list[_Block], bounds: list[np.ndarray],
+                 known: list[np.ndarray], allowed: np.ndarray) -> None:
+        self.system, self.blocks, self.allowed = system, blocks, allowed
+        self._made: dict[int, Screened] = {}
+        empty = np.zeros(0, int)
+        self.block = np.concatenate([np.full(len(b.sources), i) for i, b in enumerate(blocks)] or [empty])
+        self.row = np.concatenate([np.arange(len(b.sources)) for b in blocks] or [empty])
+        if system is not None:
+            first = {"affine": np.array([i for i, _ in system.affine], dtype=int),
+                     "rotation": np.array([i for i, _ in system.rotations], dtype=int),
+                     "compound": np.array([i for i, _, _ in system.compounds or ()], dtype=int)}
+        self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [empty]).astype(int)
+        self.generated = np.arange(len(self.index))
+        self.finite = np.concatenate([np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1) for b in blocks]
+                                     or [np.zeros(0, bool)]).astype(bool)
+        self.bound = np.concatenate(bounds or [np.zeros(0)])
+        self.known = np.concatenate(known or [np.zeros(0, bool)])
+        self.nbroken = np.zeros(len(self.index), dtype=int)
+        self.cost = np.zeros(len(self.index))
+        self._summarise(np.flatnonzero(self.known))
+
+    def evaluate(self, rows: np.ndarray) -> None:
+        """Compute the exact errors of ``rows`` (positions in the arrays) not yet known."""
+        rows = np.asarray(rows, dtype=int)
+        rows = rows[~self.known[rows]]
+        if not rows.size:
+            return
+        system = self.system
+        for b in np.unique(self.block[rows]):
+            block = self.blocks[b]
+            picked = self.row[rows[self.block[rows] == b]]
+            if block.kind == "affine":
+                residual = block.f[picked][:, :, None] * system.slope[block.sources[picked], None, :]
+                residual += system.r0
+            else:  # rotation (compound rows are known from the start)
+                sources = block.sources[picked]
+                f = block.f[picked]
+                residual = (system.matrix[sources] @ np.stack([np.cos(f), np.sin(f)], axis=1)).transpose(0, 2, 1)
+                residual += system.r0
+                residual -= system.offset[sources, None, :]
+            errors = _max_abs_per_slice(residual, system.slices)
+            block.errors[picked] = errors
+            block.broken[picked] = ~(errors < self.allowed)
+        self.known[rows] = True
+        self._summarise(rows)
+
+    def _summarise(self, rows: np.ndarray) -> None:
+        """:attr:`nbroken` and :attr:`cost` of evaluated ``rows``, as ScreenTable makes them."""
+        for b in np.unique(self.block[rows]):
+            block = self.blocks[b]
+            at = rows[self.block[rows] == b]
+            broken, errors = block.broken[self.row[at]], block.errors[self.row[at]]
+            self.nbroken[at] = broken.sum(axis=-1)
+            whole = np.isfinite(errors).all(axis=-1)
+            with np.errstate(invalid="ignore", over="ignore"):
+                total = errors.sum(axis=-1)
+            self.cost[at] = np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf))
+
+
+def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
+                   others: Mapping[str, np.ndarray], constraints: Sequence[Relation], tolerance: float,
+                   memo: dict | None = None) -> BreakingTable:
+    """Every candidate's amount solved from each constraint alone, with a lower bound of
+    its errors (their values at the last sample); compound rows, few, are evaluated at
+    once (only those with finite errors are rows, as in screen_table)."""
+    if not candidates or not constraints:
+        return BreakingTable(None, [], [], [], np.zeros(0))
+    system = _system(candidates, moving, others, constraints, memo)
+    allowed = np.maximum(tolerance, system.rest_errors)
+    blocks: list[_Block] = []
+    bounds: list[np.ndarray] = []
+    known: list[np.ndarray] = []
+    last = system.r0[-1:]                                                        # (1, K)
+    for columns in system.slices:
+        if system.affine:
+            f, usable = _affine_amounts(system.r0, system.slope, columns)
+            rows = np.flatnonzero(usable)
+            f = f[rows]
+            # The residual at the last sample, element by element the one of the whole residual
+            at_end = f[:, -1:, None] * system.slope[rows, None, :]                   # (N, 1, K)
+            at_end += last
+            blocks.append(_Block("affine", rows, f, np.full((len(rows), len(system.slices)), np.nan),
+                                 np.zeros((len(rows), len(system.slices)), dtype=bool)))
+            bounds.append(_cost_bound(_max_abs_per_slice(at_end, system.slices), allowed))
+            known.append(np.zeros(len(rows), dtype=bool))
+        if system.rotations:
+            f_all, usable = _rotation_amounts_batch(system, columns)
+            rows = np.flatnonzero(usable)
+            f_all = f_all[rows]
+            end = f_all[:, -1:]
+            matrix = system.matrix[rows]
+            at_end = (matrix @ np.stack([np.cos(end), np.sin(end)], axis=1)).transpose(0, 2, 1)  # (N, 1, K)
+            at_end += last
+            at_end -= system.offset[rows, None, :]
+            # (a product of another shape may round differently: the bound gives way by
+            # far more than that rounding, relative to the terms summed)
+            size = np.abs(matrix).sum(axis=-1) + np.abs(last) + np.abs(system.offset[rows])  # (N, K)
+            slack = slice_maxima(1e-9 * size, system.slices)
+            errors = np.maximum(_max_abs_per_slice(at_end, system.slices) - slack, 0.0)
+            blocks.append(_Block("rotation", rows, f_all, np.full((len(rows), len(system.slices)), np.nan),
+                                 np.zeros((len(rows), len(system.slices)), dtype=bool)))
+            bounds.append(_cost_bound(errors, allowed))
+            known.append(np.zeros(len(rows), dtype=bool))
+        if system.compounds:
+            amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]
+            residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
+            every = relation_max_errors(residuals, system.slices)
+            for j, f in enumerate(amounts):
+                errors = every[j:j + 1]
+                if np.all(np.isfinite(errors)):
+                    blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
+                    bounds.append(np.zeros(1))
+                    known.append(np.ones(1, dtype=bool))
+    return BreakingTable(system, blocks, bounds, known, allowed)
+
+
+def _cost_bound(errors: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+    """A lower bound of each row's cost from lower bounds of its errors: their sum when one
+    already reaches its allowance (the row breaks a constraint), else 0; not a number: 0."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        bound = np.where((errors >= allowed).any(axis=-1), errors.sum(axis=-1), 0.0)
+    return np.where(np.isnan(bound), 0.0, bound)
+
+
+def least_breaking(table: BreakingTable, constraints: int, distortion: Callable[[list[Screened]], np.ndarray],
+                   rank: Callable[[list[Screened]], list[Screened]], tolerance: float,
+                   high: float) -> Screened | None:
+    """The breaking-edit to take: the best ranked (``rank``) of the rows whose total error
+    is within 1% of the least among the edits whose ``distortion`` is not above ``high``.
+
+    Rows that break all ``constraints`` or have no finite amounts or cost are not taken.
+    Rows are evaluated in order of their bounds until the ones the choice reads are known:
+    the least errors in chunks of 16 (as many as an acceptable one takes), then every row
+    that may be within 1% of the least.
+    """
+    scan = _Scan(table, constraints)
+    start, least = 0, None
+    while least is None:
+        ordered = scan.smallest(start + _CHUNK)
+        chunk = [table.screened(i) for i in ordered[start:start + _CHUNK]]
+        if not chunk:
+            return None
+        acceptable = np.flatnonzero(~(distortion(chunk) > high))
+        if acceptable.size:
+            least = chunk[int(acceptable[0])].cost
+        start += _CHUNK
+    limit = least * 1.01 + tolerance
+    scan.through(limit)
+    near = scan.pool()
+    near = near[table.cost[near] <= limit]
+    near = near[np.lexsort((table.generated[near], table.nbroken[near], table.index[near]))]
+    ranked = rank([table.screened(i) for i in near])
+    return ranked[0] if ranked else None
+
+
+class _Scan:
+    """The rows of a :class:`BreakingTable` evaluated in order of their bounds."""
+
+    def __init__(self, table: BreakingTable, constraints: int) -> None:
+        self.table, self.constraints = table, constraints
+        rows = np.flatnonzero(table.finite)
+        self.by_bound = rows[np.argsort(table.bound[rows], kind="stable")]
+        self.next = 0
+        self.batch = _FIRST_BATCH
+
+    def floor(self) -> float:
+        """The least bound of a row not evaluated (infinite when all are)."""
+        while self.next < len(self.by_bound) and self.table.known[self.by_bound[self.next]]:
+            self.next += 1
+        return float(self.table.bound[self.by_bound[self.next]]) if self.next < len(self.by_bound) else np.inf
+
+    def more(self) -> None:
+        self.table.evaluate(self.by_bound[self.next:self.next + self.batch])
+        self.next += self.batch
+        self.batch *= 2
+
+    def pool(self) -> np.ndarray:
+        """Evaluated rows that may be taken, in the arrays' order."""
+        t = self.table
+        return np.flatnonzero(t.known & t.finite & (t.nbroken < self.constraints) & np.isfinite(t.cost))
+
+    def smallest(self, count: int) -> np.ndarray:
+        """The ``count`` rows of least cost that may be taken (fewer if there are not as
+        many), ties in the eager table's order, every row that could be among them evaluated."""
+        t = self.table
+        while True:
+            pool = self.pool()
+            floor = self.floor()
+            if len(pool) >= count and floor > np.partition(t.cost[pool], count - 1)[count - 1]:
+                break
+            if floor == np.inf:
+                break
+            self.more()
+        ordered = pool[np.lexsort((t.generated[pool], t.nbroken[pool], t.index[pool], t.cost[pool]))]
+        return ordered[:count]
+
+    def through(self, limit: float) -> None:
+        """Evaluate every row whose cost may be at most ``limit``."""
+        while self.floor() <= limit:
+            self.more()

@@ -90,41 +90,42 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
     dirs = directions(hexahedron)
     out: dict[tuple, EditOp] = {}
     # Keys first, each op built only the first time its key appears (the first one is kept).
-    point_vecs = [_vec(p) for p in points]
-    dir_vecs = [_vec(d) for d in dirs]
+    # Points and directions are normalised once, as the ops' constructors store them.
+    point_vecs = [_vector(Scale1D, "origin", _vec(p)) for p in points]
+    dir_vecs = [_vector(Scale1D, "dir", _vec(d)) for d in dirs]
     dir_keys = [_key(d) for d in dirs]
+    make = _make_normalised
 
     for dv, dk in zip(dir_vecs, dir_keys):
         key = ("translate", dk)
         if key not in out:
-            out[key] = _make(Translate, part, dir=dv)
+            out[key] = make(Translate, part, dir=dv)
     for n, nv, nk in zip(dirs, dir_vecs, dir_keys):
-        heights = []
-        for p, pv in zip(points, point_vecs):
-            along = p @ n
-            height = round(float(along), 7)
-            heights.append(height)
+        along = [p @ n for p in points]
+        heights = [round(float(a), 7) for a in along]
+        # (each point's projection on the plane normal to n, rounded as _key rounds it)
+        planes = np.round(points - np.array(along)[:, None] * n, 7) + 0.0
+        for pv, height, plane in zip(point_vecs, heights, map(tuple, planes)):
             key = ("scale_1d", nk, height)
             if key not in out:
-                out[key] = _make(Scale1D, part, origin=pv, dir=nv)
-            plane = _key(p - along * n)
+                out[key] = make(Scale1D, part, origin=pv, dir=nv)
             key = ("scale_2d", nk, plane)
             if key not in out:
-                out[key] = _make(Scale2D, part, origin=pv, normal=nv)
+                out[key] = make(Scale2D, part, origin=pv, normal=nv)
             key = ("rotate", nk, plane)
             if key not in out:
-                out[key] = _make(Rotate, part, origin=pv, axis=nv)
+                out[key] = make(Rotate, part, origin=pv, axis=nv)
         for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             if abs(float(n @ d)) > 1e-6:
                 continue
             for pv, height in zip(point_vecs, heights):
                 key = ("shear", nk, dk, height)
                 if key not in out:
-                    out[key] = _make(Shear, part, origin=pv, normal=nv, dir=dv)
-    for p, pv in zip(points, point_vecs):
-        key = ("scale_3d", _key(p))
+                    out[key] = make(Shear, part, origin=pv, normal=nv, dir=dv)
+    for key, pv in zip(map(tuple, np.round(points, 7) + 0.0), point_vecs):
+        key = ("scale_3d", key)
         if key not in out:
-            out[key] = _make(Scale3D, part, origin=pv)
+            out[key] = make(Scale3D, part, origin=pv)
     corners = hexahedron.corners
     for face in FACE_NAMES:
         face_points = corners[list(feature_corners(face))]
@@ -134,20 +135,20 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
         for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
             key = ("face_translate", face, dk)
             if key not in out:
-                out[key] = _make(Translate, part, feature=face, dir=dv)
+                out[key] = make(Translate, part, feature=face, dir=dv)
             if abs(float(d @ normal)) > 0.9:
                 continue  # scaling a face along its normal only moves it: a face translation
             if face_vecs is None:
-                face_vecs = [_vec(p) for p in face_points]
+                face_vecs = [_vector(Scale1D, "origin", _vec(p)) for p in face_points]
             for p, pv in zip(face_points, face_vecs):
                 key = ("face_scale", face, dk, round(float(p @ d), 7))
                 if key not in out:
-                    out[key] = _make(Scale1D, part, feature=face, origin=pv, dir=dv)
+                    out[key] = make(Scale1D, part, feature=face, origin=pv, dir=dv)
     for edge in EDGE_NAMES:
         for dv, dk in zip(dir_vecs, dir_keys):
             key = ("edge_translate", edge, dk)
             if key not in out:
-                out[key] = _make(Translate, part, feature=edge, dir=dv)
+                out[key] = make(Translate, part, feature=edge, dir=dv)
     ops = list(out.values())
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
@@ -309,6 +310,25 @@ def _vector(cls: type, name: str, value):
             _VECTORS.clear()
         vector = _VECTORS[key] = as_vector(value, f"{cls.name}.{name}", unit=unit)
     return vector
+
+
+def _make_normalised(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
+    """:func:`_make` for vector parameters already as :func:`_vector` stores them (each
+    normalised once for many ops)."""
+    layout = _LAYOUT.get(cls)
+    if layout is None or not layout[1]:
+        return _make(cls, part, feature, **params)
+    values = {"operand": part, "amount": "f", "feature": None if feature is None else _canonical(feature)}
+    for name, default in layout[0]:
+        if name in params:
+            values[name] = params[name]
+        elif default is dataclasses.MISSING:
+            return cls(part, "f", feature=feature, **params)
+        else:
+            values[name] = _vector(cls, name, default)
+    op = object.__new__(cls)
+    op.__dict__.update(values)
+    return op
 
 
 def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:

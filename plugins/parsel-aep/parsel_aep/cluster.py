@@ -227,6 +227,7 @@ class _Numerics:
         self.seen: set = set()
         #: Solves whose matrix was proved to have full column rank (:func:`_conditioned_lstsq`).
         self.conditioned: set = set()
+        self.gathers: dict = {}
         self.exact = _Numerics(system, fast=False) if fast else self
 
     def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
@@ -246,8 +247,8 @@ class _Numerics:
                 r, b = compressed
                 a = r[:, live] * p[live]
             else:
-                a, b = _weighted(self.system.slopes[np.ix_(live, columns)].T * p[live],  # (K', B')
-                                 self.system.r0[:, columns].T, rows)                     # (K', S)
+                slopes, r0 = self.gathered(columns, live)
+                a, b = _weighted(slopes * p[live], r0, rows)                             # (K', B'), (K', S)
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             with one_blas_thread():
                 y = _conditioned_lstsq(a / norm, b)
@@ -258,6 +259,15 @@ class _Numerics:
             out = np.zeros((len(p), b.shape[1]))
             out[live] = p[live, None] * y / norm
             out = self.solved[key] = -out.T
+        return out
+
+    def gathered(self, columns: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The slopes (K', B') of the ``live`` amounts on ``columns`` and the residuals there
+        (K', S), gathered once: the reweighted solves (IRLS, FOCUSS) read them again."""
+        key = (columns.tobytes(), live.tobytes())
+        out = self.gathers.get(key)
+        if out is None:
+            out = self.gathers[key] = (self.system.slopes[np.ix_(live, columns)].T, self.system.r0[:, columns].T)
         return out
 
     def determined(self, columns: np.ndarray, rows: np.ndarray | None) -> bool:

@@ -60,6 +60,12 @@ class ClusterSystem:
     solved: dict = field(default_factory=dict, repr=False, compare=False)
 
 
+#: box_compound's bases by (part, rest corners, frame, shears): the joint pass builds the same
+#: parts' bases for every variant and ring (bounded; cleared when full).
+_BOXES: dict[tuple, Compound] = {}
+_BOXES_SIZE = 1024
+
+
 def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = False) -> Compound:
     """Scalings about the part's centre along three orthogonal axes, then translations.
 
@@ -69,8 +75,19 @@ def box_compound(part: str, hexahedron, frame: str = "local", shears: bool = Fal
     the six shears between those axes, applied after the scalings: a stretcher between two
     legs that grow by slightly different amounts must tilt with them. (A shear reading an
     axis that a scaling also changed adds a product of amounts, which the final check
-    measures; the scalings and shears of one part are rarely both needed.)
+    measures; the scalings and shears of one part are rarely both needed.) The same basis
+    (frozen ops) is returned for the same part, box, frame and shears.
     """
+    key = (part, np.asarray(hexahedron.corners, dtype=float).tobytes(), frame, shears)
+    known = _BOXES.get(key)
+    if known is None:
+        if len(_BOXES) >= _BOXES_SIZE:
+            _BOXES.clear()
+        known = _BOXES[key] = _box_compound(part, hexahedron, frame, shears)
+    return known
+
+
+def _box_compound(part: str, hexahedron, frame: str, shears: bool) -> Compound:
     c = _vec(hexahedron.center)
     axes = list(np.eye(3)) if frame == "world" else orthogonal_axes(hexahedron)
     if axes is None:

@@ -516,6 +516,18 @@ def reference_slopes(parts, hexahedra, rest, constraints, frame, shears, members
     return np.concatenate(out)
 
 
+@pytest.mark.parametrize("frame, shears", [("local", False), ("local", True), ("world", True)])
+def test_box_bases_are_built_once_per_part_box_and_variant(frame, shears):
+    rng = np.random.default_rng(9)
+    box, other = skewed_box(rng), skewed_box(rng)
+    first = cluster.box_compound("p", box, frame, shears)
+    assert cluster.box_compound("p", box, frame, shears) is first
+    assert first == cluster._box_compound("p", box, frame, shears)  # what it remembers is what it builds
+    assert cluster.box_compound("p", other, frame, shears) != first
+    assert cluster.box_compound("q", box, frame, shears).basis[0].operand == "q"
+    assert cluster.box_compound("p", box, frame, not shears) != first
+
+
 @pytest.mark.parametrize("frame, shears", [("local", False), ("world", True)])
 def test_joint_slopes_evaluate_only_the_constraints_a_part_moves(frame, shears):
     from parsel_core.loading import load_shape

@@ -16,6 +16,7 @@ so for a box ~200 candidates remain instead of thousands.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 from collections.abc import Iterable, Sequence
@@ -94,7 +95,7 @@ def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list
     point_vecs = [_vector(Scale1D, "origin", _vec(p)) for p in points]
     dir_vecs = [_vector(Scale1D, "dir", _vec(d)) for d in dirs]
     dir_keys = [_key(d) for d in dirs]
-    make = _make_normalised
+    make = functools.partial(_make, normalised=True)
 
     for dv, dk in zip(dir_vecs, dir_keys):
         key = ("translate", dk)
@@ -240,10 +241,11 @@ def _about_neighbour(neighbour: Hexahedron) -> tuple[tuple[tuple, type, dict, li
     return out
 
 
-def _build(cls: type, part: str, fields: list[tuple[str, object]]) -> EditOp:
-    """The op :func:`_make` builds, from fields already normalised (:func:`_normalised`)."""
+def _build(cls: type, part: str, fields, feature: str | None = None) -> EditOp:
+    """The op :func:`_make` builds, from fields already normalised (:func:`_normalised`) and
+    a canonical feature name: a frozen dataclass, its fields set as the constructor sets them."""
     op = object.__new__(cls)
-    op.__dict__.update(operand=part, amount="f", feature=None)
+    op.__dict__.update(operand=part, amount="f", feature=feature)
     op.__dict__.update(fields)
     return op
 
@@ -255,11 +257,12 @@ _VECTORS: dict[tuple, tuple[float, float, float]] = {}
 _LAYOUT: dict[type, tuple[tuple[tuple[str, object], ...], bool]] = {}
 
 
-def _make(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
+def _make(cls: type, part: str, feature: str | None = None, normalised: bool = False, **params) -> EditOp:
     """``cls(part, "f", feature=feature, **params)`` for the valid parameters candidates use,
     without validating them again (a few hundred ops per part, every one a dataclass whose
     ``__post_init__`` parses the amount and normalises each vector). The fields hold the
-    values the constructor would store: vectors normalised as ``as_vector`` does (cached),
+    values the constructor would store: vectors normalised as ``as_vector`` does (cached;
+    ``normalised``: the vectors given already are, each normalised once for many ops),
     the feature name made canonical. The first op of each class is also built by its
     constructor and compared; a class where the two differ is always built by it."""
     layout = _LAYOUT.get(cls)
@@ -276,7 +279,7 @@ def _make(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
         layout = _LAYOUT[cls] = (own, exact)
     if not layout[1]:
         return cls(part, "f", feature=feature, **params)
-    return _fast_make(cls, layout[0], part, feature, params)
+    return _fast_make(cls, layout[0], part, feature, params, normalised)
 
 
 def _normalised(cls: type, part: str, params: dict) -> list[tuple[str, object]] | None:
@@ -312,35 +315,17 @@ def _vector(cls: type, name: str, value):
     return vector
 
 
-def _make_normalised(cls: type, part: str, feature: str | None = None, **params) -> EditOp:
-    """:func:`_make` for vector parameters already as :func:`_vector` stores them (each
-    normalised once for many ops)."""
-    layout = _LAYOUT.get(cls)
-    if layout is None or not layout[1]:
-        return _make(cls, part, feature, **params)
-    values = {"operand": part, "amount": "f", "feature": None if feature is None else _canonical(feature)}
-    for name, default in layout[0]:
-        if name in params:
-            values[name] = params[name]
-        elif default is dataclasses.MISSING:
-            return cls(part, "f", feature=feature, **params)
-        else:
-            values[name] = _vector(cls, name, default)
-    op = object.__new__(cls)
-    op.__dict__.update(values)
-    return op
-
-
-def _fast_make(cls: type, own, part: str, feature: str | None, params: dict) -> EditOp:
-    values = {"operand": part, "amount": "f", "feature": None if feature is None else _canonical(feature)}
+def _fast_make(cls: type, own, part: str, feature: str | None, params: dict, normalised: bool = False) -> EditOp:
+    fields = {}
     for name, default in own:
+        if normalised and name in params:
+            fields[name] = params[name]
+            continue
         value = params.get(name, default)
         if value is dataclasses.MISSING:
             return cls(part, "f", feature=feature, **params)
-        values[name] = _vector(cls, name, value)
-    op = object.__new__(cls)
-    op.__dict__.update(values)  # (a frozen dataclass: its fields set as the constructor sets them)
-    return op
+        fields[name] = _vector(cls, name, value)
+    return _build(cls, part, fields, None if feature is None else _canonical(feature))
 
 
 _CANONICAL: dict[str, str] = {}

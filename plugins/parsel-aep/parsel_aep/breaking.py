@@ -10,8 +10,8 @@ So every row's errors are first bounded below by their values at the last sample
 end of the range, where edits move most: one sample's residual instead of all of them),
 which bounds its total error, and exact errors are computed only for rows whose bound
 could place them among those the choice reads. The rows, their exact errors and the
-choice are those of screening every row (:func:`~parsel_aep.screening.screen_table`
-with ``per_constraint``), to the bit.
+choice are those of screening every row in full (the residuals and costs are those of
+:func:`~parsel_aep.screening.screen_table`), to the bit.
 """
 
 from __future__ import annotations
@@ -24,13 +24,15 @@ from parsel_aep.screening import (
     Screened,
     ScreenTable,
     _affine_amounts,
+    _affine_residual,
     _Block,
-    _compound_amounts,
+    _compound_blocks,
     _max_abs_per_slice,
     _rotation_amounts_batch,
+    _rotation_residual,
+    _row_costs,
     _System,
     _system,
-    relation_max_errors,
     slice_maxima,
 )
 from parsel_core.ops import EditOp
@@ -43,26 +45,18 @@ _CHUNK = 16
 
 
 class BreakingTable(ScreenTable):
-    """:func:`~parsel_aep.screening.screen_table` with ``per_constraint``, its rows'
-    errors computed on :meth:`evaluate`; :attr:`bound` holds a lower bound of every row's
-    :attr:`cost` until then. :attr:`nbroken`, :attr:`cost` and :meth:`screened` are
-    those of the eager table for evaluated rows."""
+    """Every candidate solved from each constraint alone, one row per pair, laid out as a
+    :class:`~parsel_aep.screening.ScreenTable`; a row's errors are computed on
+    :meth:`evaluate`, and :attr:`bound` holds a lower bound of its :attr:`cost` until
+    then. Rows go by candidate, then fewest broken, then as generated
+    (:attr:`generated`); :attr:`nbroken`, :attr:`cost` and :meth:`screened` hold for
+    evaluated rows."""
 
     def __init__(self, system: _System | None, blocks: list[_Block], bounds: list[np.ndarray],
                  known: list[np.ndarray], allowed: np.ndarray) -> None:
-        self.system, self.blocks, self.allowed = system, blocks, allowed
-        self._made: dict[int, Screened] = {}
-        empty = np.zeros(0, int)
-        self.block = np.concatenate([np.full(len(b.sources), i) for i, b in enumerate(blocks)] or [empty])
-        self.row = np.concatenate([np.arange(len(b.sources)) for b in blocks] or [empty])
-        if system is not None:
-            first = {"affine": np.array([i for i, _ in system.affine], dtype=int),
-                     "rotation": np.array([i for i, _ in system.rotations], dtype=int),
-                     "compound": np.array([i for i, _, _ in system.compounds or ()], dtype=int)}
-        self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [empty]).astype(int)
+        self._lay_out(system, blocks)
+        self.allowed = allowed
         self.generated = np.arange(len(self.index))
-        self.finite = np.concatenate([np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1) for b in blocks]
-                                     or [np.zeros(0, bool)]).astype(bool)
         self.bound = np.concatenate(bounds or [np.zeros(0)])
         self.known = np.concatenate(known or [np.zeros(0, bool)])
         self.nbroken = np.zeros(len(self.index), dtype=int)
@@ -75,20 +69,13 @@ class BreakingTable(ScreenTable):
         rows = rows[~self.known[rows]]
         if not rows.size:
             return
-        system = self.system
         for b in np.unique(self.block[rows]):
             block = self.blocks[b]
             picked = self.row[rows[self.block[rows] == b]]
-            if block.kind == "affine":
-                residual = block.f[picked][:, :, None] * system.slope[block.sources[picked], None, :]
-                residual += system.r0
-            else:  # rotation (compound rows are known from the start)
-                sources = block.sources[picked]
-                f = block.f[picked]
-                residual = (system.matrix[sources] @ np.stack([np.cos(f), np.sin(f)], axis=1)).transpose(0, 2, 1)
-                residual += system.r0
-                residual -= system.offset[sources, None, :]
-            errors = _max_abs_per_slice(residual, system.slices)
+            # (compound rows are known from the start)
+            residual = (_affine_residual if block.kind == "affine" else _rotation_residual)(
+                self.system, block.sources[picked], block.f[picked])
+            errors = _max_abs_per_slice(residual, self.system.slices)
             block.errors[picked] = errors
             block.broken[picked] = ~(errors < self.allowed)
         self.known[rows] = True
@@ -99,12 +86,7 @@ class BreakingTable(ScreenTable):
         for b in np.unique(self.block[rows]):
             block = self.blocks[b]
             at = rows[self.block[rows] == b]
-            broken, errors = block.broken[self.row[at]], block.errors[self.row[at]]
-            self.nbroken[at] = broken.sum(axis=-1)
-            whole = np.isfinite(errors).all(axis=-1)
-            with np.errstate(invalid="ignore", over="ignore"):
-                total = errors.sum(axis=-1)
-            self.cost[at] = np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf))
+            self.nbroken[at], self.cost[at] = _row_costs(block.broken[self.row[at]], block.errors[self.row[at]])
 
 
 def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray],
@@ -120,15 +102,14 @@ def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray
     blocks: list[_Block] = []
     bounds: list[np.ndarray] = []
     known: list[np.ndarray] = []
-    last = system.r0[-1:]                                                        # (1, K)
+    last = slice(-1, None)  # the last sample
     for columns in system.slices:
         if system.affine:
             f, usable = _affine_amounts(system.r0, system.slope, columns)
             rows = np.flatnonzero(usable)
             f = f[rows]
             # The residual at the last sample, element by element the one of the whole residual
-            at_end = f[:, -1:, None] * system.slope[rows, None, :]                   # (N, 1, K)
-            at_end += last
+            at_end = _affine_residual(system, rows, f, last)                           # (N, 1, K)
             blocks.append(_Block("affine", rows, f, np.full((len(rows), len(system.slices)), np.nan),
                                  np.zeros((len(rows), len(system.slices)), dtype=bool)))
             bounds.append(_cost_bound(_max_abs_per_slice(at_end, system.slices), allowed))
@@ -137,30 +118,21 @@ def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray
             f_all, usable = _rotation_amounts_batch(system, columns)
             rows = np.flatnonzero(usable)
             f_all = f_all[rows]
-            end = f_all[:, -1:]
-            matrix = system.matrix[rows]
-            at_end = (matrix @ np.stack([np.cos(end), np.sin(end)], axis=1)).transpose(0, 2, 1)  # (N, 1, K)
-            at_end += last
-            at_end -= system.offset[rows, None, :]
+            at_end = _rotation_residual(system, rows, f_all, last)                     # (N, 1, K)
             # (a product of another shape may round differently: the bound gives way by
             # far more than that rounding, relative to the terms summed)
-            size = np.abs(matrix).sum(axis=-1) + np.abs(last) + np.abs(system.offset[rows])  # (N, K)
+            size = (np.abs(system.matrix[rows]).sum(axis=-1) + np.abs(system.r0[last])
+                    + np.abs(system.offset[rows]))                                      # (N, K)
             slack = slice_maxima(1e-9 * size, system.slices)
             errors = np.maximum(_max_abs_per_slice(at_end, system.slices) - slack, 0.0)
             blocks.append(_Block("rotation", rows, f_all, np.full((len(rows), len(system.slices)), np.nan),
                                  np.zeros((len(rows), len(system.slices)), dtype=bool)))
             bounds.append(_cost_bound(errors, allowed))
             known.append(np.zeros(len(rows), dtype=bool))
-        if system.compounds:
-            amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]
-            residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
-            every = relation_max_errors(residuals, system.slices)
-            for j, f in enumerate(amounts):
-                errors = every[j:j + 1]
-                if np.all(np.isfinite(errors)):
-                    blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
-                    bounds.append(np.zeros(1))
-                    known.append(np.ones(1, dtype=bool))
+        for block in _compound_blocks(system, columns, allowed):
+            blocks.append(block)
+            bounds.append(np.zeros(1))
+            known.append(np.ones(1, dtype=bool))
     return BreakingTable(system, blocks, bounds, known, allowed)
 
 

@@ -335,67 +335,87 @@ def _rotation_amounts_batch(system: _System, columns) -> tuple[np.ndarray, np.nd
 
 
 def screen(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
-           constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False) -> list[Screened]:
+           constraints: Sequence[Relation], tolerance: float) -> list[Screened]:
     """Best amounts and leftover broken relations for every candidate, in order
     (:func:`screen_table`, every row made a :class:`Screened`)."""
-    table = screen_table(candidates, moving, others, constraints, tolerance, per_constraint)
+    table = screen_table(candidates, moving, others, constraints, tolerance)
     return [table.screened(i) for i in table.order]
 
 
 def screen_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], others: Mapping[str, np.ndarray],
-                 constraints: Sequence[Relation], tolerance: float, per_constraint: bool = False,
-                 memo: dict | None = None, valid_only: bool = False) -> ScreenTable:
+                 constraints: Sequence[Relation], tolerance: float, memo: dict | None = None,
+                 valid_only: bool = False) -> ScreenTable:
     """Best amounts and leftover broken relations for every candidate, as arrays.
 
     ``moving``: rest corners (8, 3) of the parts the candidate moves (one part, or all
     members of a group edited through its virtual parent); ``others``: corners (S, 8, 3)
     of every other part the constraints mention, at the S sampled parameter values.
-    With ``per_constraint`` (breaking-edits, paper 5.3.1) the amount is solved from each
-    constraint alone and tried against all of them, giving one result per pair. ``memo``:
-    see :func:`_system`. With ``valid_only`` (a search that takes only candidates keeping
-    every constraint) a translation or scaling stops being checked at the first constraint
-    it breaks: its other errors are not computed and its count of broken constraints is
-    only known to be positive.
+    ``memo``: see :func:`_system`. With ``valid_only`` (a search that takes only candidates
+    keeping every constraint) a translation or scaling stops being checked at the first
+    constraint it breaks: its other errors are not computed and its count of broken
+    constraints is only known to be positive. (Breaking-edits, whose amounts are solved
+    from each constraint alone, are screened by :mod:`parsel_aep.breaking`.)
     """
     if not candidates or not constraints:
-        return ScreenTable(None, [], per_constraint)
+        return ScreenTable(None, [])
     system = _system(candidates, moving, others, constraints, memo)
     allowed = np.maximum(tolerance, system.rest_errors)
     everything = slice(None)
-    column_sets = system.slices if per_constraint else [everything]
     blocks: list[_Block] = []
-    for columns in column_sets:
-        if system.affine:
-            f, usable = _affine_amounts(system.r0, system.slope, columns)
-            rows = np.flatnonzero(usable)
-            f = f[rows]
-            if valid_only and not per_constraint:
-                errors, broken = _errors_until_broken(system, f, system.slope[rows], allowed)
-            else:
-                residual = f[:, :, None] * system.slope[rows, None, :]
-                residual += system.r0                                                  # r0 + f a, in place
-                errors = _max_abs_per_slice(residual, system.slices)
-                broken = ~(errors < allowed)
-            blocks.append(_Block("affine", rows, f, errors, broken))
-        if system.rotations:
-            f_all, usable = _rotation_amounts_batch(system, columns)
-            rows = np.flatnonzero(usable)
-            f_all = f_all[rows]
-            cos, sin = np.cos(f_all), np.sin(f_all)                                      # (N, S)
-            residual = (system.matrix[rows] @ np.stack([cos, sin], axis=1)).transpose(0, 2, 1)  # (N, S, K)
-            residual += system.r0                                                      # (A c + B s + r0) - A
-            residual -= system.offset[rows, None, :]
-            errors = _max_abs_per_slice(residual, system.slices)
-            blocks.append(_Block("rotation", rows, f_all, errors, ~(errors < allowed)))
-        if system.compounds:
-            amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]  # (S, B)
-            residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
-            every = relation_max_errors(residuals, system.slices)                      # (C, R) at once
-            for j, f in enumerate(amounts):
-                errors = every[j:j + 1]
-                if np.all(np.isfinite(errors)):
-                    blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
-    return ScreenTable(system, blocks, per_constraint)
+    if system.affine:
+        f, usable = _affine_amounts(system.r0, system.slope, everything)
+        rows = np.flatnonzero(usable)
+        f = f[rows]
+        if valid_only:
+            errors, broken = _errors_until_broken(system, f, system.slope[rows], allowed)
+        else:
+            errors = _max_abs_per_slice(_affine_residual(system, rows, f), system.slices)
+            broken = ~(errors < allowed)
+        blocks.append(_Block("affine", rows, f, errors, broken))
+    if system.rotations:
+        f_all, usable = _rotation_amounts_batch(system, everything)
+        rows = np.flatnonzero(usable)
+        f_all = f_all[rows]
+        errors = _max_abs_per_slice(_rotation_residual(system, rows, f_all), system.slices)
+        blocks.append(_Block("rotation", rows, f_all, errors, ~(errors < allowed)))
+    blocks += _compound_blocks(system, everything, allowed)
+    return ScreenTable(system, blocks)
+
+
+def _affine_residual(system: _System, sources: np.ndarray, f: np.ndarray, samples: slice = slice(None)
+                     ) -> np.ndarray:
+    """``r0 + f a`` (N, S', K) of the affine candidates ``sources`` at amounts ``f`` (N, S), at
+    the ``samples``."""
+    residual = f[:, samples, None] * system.slope[sources, None, :]
+    residual += system.r0[samples]                                                     # in place
+    return residual
+
+
+def _rotation_residual(system: _System, sources: np.ndarray, f: np.ndarray, samples: slice = slice(None)
+                       ) -> np.ndarray:
+    """``A cos f + B sin f + gamma`` (N, S', K) of the rotations ``sources`` at angles ``f``
+    (N, S), at the ``samples``."""
+    f = f[:, samples]
+    residual = (system.matrix[sources] @ np.stack([np.cos(f), np.sin(f)], axis=1)).transpose(0, 2, 1)
+    residual += system.r0[samples]                                                     # (A c + B s + r0) - A
+    residual -= system.offset[sources, None, :]
+    return residual
+
+
+def _compound_blocks(system: _System, columns, allowed: np.ndarray) -> list[_Block]:
+    """Every compound solved on the residual ``columns``, one block each; only those whose
+    errors are all finite."""
+    if not system.compounds:
+        return []
+    amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]  # (S, B)
+    residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
+    every = relation_max_errors(residuals, system.slices)                              # (C, R) at once
+    blocks = []
+    for j, f in enumerate(amounts):
+        errors = every[j:j + 1]
+        if np.all(np.isfinite(errors)):
+            blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
+    return blocks
 
 
 def _errors_until_broken(system: _System, f: np.ndarray, slope: np.ndarray, allowed: np.ndarray
@@ -435,13 +455,19 @@ class _Block:
 
 
 class ScreenTable:
-    """Every screened result of one :func:`screen_table` call as arrays, in the order of
-    :attr:`order`: by candidate, and per candidate (breaking-edits) fewest broken first.
-    :class:`Screened` objects are made only for the rows asked for (:meth:`screened`):
-    breaking-edits come one per candidate and constraint, thousands of them, and a
-    search reads a few."""
+    """Every screened result of one :func:`screen_table` call as arrays, in candidate order
+    (:attr:`order`). :class:`Screened` objects are made only for the rows asked for
+    (:meth:`screened`): a search reads the valid ones."""
 
-    def __init__(self, system: _System | None, blocks: list[_Block], per_constraint: bool) -> None:
+    def __init__(self, system: _System | None, blocks: list[_Block]) -> None:
+        self._lay_out(system, blocks)
+        counts = [_row_costs(b.broken, b.errors) for b in blocks]
+        self.nbroken = np.concatenate([n for n, _ in counts] or [np.zeros(0, int)]).astype(int)
+        self.cost = np.concatenate([c for _, c in counts] or [np.zeros(0)])
+        self.order = np.argsort(self.index, kind="stable")
+
+    def _lay_out(self, system: _System | None, blocks: list[_Block]) -> None:
+        """Each row's block, place in it, candidate index and whether its amounts are finite."""
         self.system, self.blocks = system, blocks
         self._made: dict[int, Screened] = {}
         self.block = np.concatenate([np.full(len(b.sources), i) for i, b in enumerate(blocks)] or [np.zeros(0, int)])
@@ -451,22 +477,8 @@ class ScreenTable:
                      "rotation": np.array([i for i, _ in system.rotations], dtype=int),
                      "compound": np.array([i for i, _, _ in system.compounds or ()], dtype=int)}
         self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [np.zeros(0, int)]).astype(int)
-        nbroken, cost, finite = [], [], []
-        for b in blocks:
-            broken, errors = b.broken, b.errors
-            nbroken.append(broken.sum(axis=-1))
-            # Screened.cost of every row: the errors of a row that breaks a constraint summed
-            whole = np.isfinite(errors).all(axis=-1)
-            with np.errstate(invalid="ignore", over="ignore"):
-                total = errors.sum(axis=-1)
-            cost.append(np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf)))
-            finite.append(np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1))
-        self.nbroken = np.concatenate(nbroken or [np.zeros(0, int)]).astype(int)
-        self.cost = np.concatenate(cost or [np.zeros(0)])
-        self.finite = np.concatenate(finite or [np.zeros(0, bool)]).astype(bool)
-        generated = np.arange(len(self.index))
-        self.order = np.lexsort((generated, self.nbroken, self.index)) if per_constraint else \
-            np.argsort(self.index, kind="stable")
+        self.finite = np.concatenate([np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1) for b in blocks]
+                                     or [np.zeros(0, bool)]).astype(bool)
 
     def screened(self, i: int) -> Screened:
         """Result ``i`` (a position in the arrays, not in :attr:`order`) as a :class:`Screened`."""
@@ -490,6 +502,15 @@ class ScreenTable:
                                 float(self.cost[i]))
             self._made[i] = made
         return made
+
+
+def _row_costs(broken: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's count of broken constraints and :attr:`Screened.cost`: the errors of a
+    row that breaks a constraint summed (infinite if one is not finite), else 0."""
+    whole = np.isfinite(errors).all(axis=-1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        total = errors.sum(axis=-1)
+    return broken.sum(axis=-1), np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf))
 
 
 def _compound_amounts(r0: np.ndarray, slopes: np.ndarray, columns) -> np.ndarray:

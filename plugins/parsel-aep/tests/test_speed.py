@@ -238,25 +238,19 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
     """Screening keeps its results as arrays and makes Screened objects only for the rows a
     search reads, takes the rows of candidates a search screened before from its memo, and
     (searches for valid candidates) stops checking a candidate at its first broken
-    constraint; every valid row, every row of breaking-edit screening, their order, broken
-    ids and error totals must be those of screening every candidate afresh and making them
-    all, and every other row must still count as broken. (Searches screen breaking-edits
-    lazily, breaking.py; each search's candidates are also screened for breaking-edits
-    here.)"""
+    constraint; every valid row, their order, broken ids and error totals must be those of
+    screening every candidate afresh and making them all, and every other row must still
+    count as broken. (Breaking-edits: breaking.py, tested below.)"""
     from parsel_aep import propagate as propagate_module
 
     table_of = screening.screen_table
-    seen = {"plain": 0, "breaking": 0, "rows": 0, "reused": 0, "cut short": 0}
+    seen = {"plain": 0, "rows": 0, "reused": 0, "cut short": 0}
 
-    def both(candidates, moving, others, constraints, tolerance, per_constraint=False, memo=None,
-             valid_only=False):
-        if not per_constraint:
-            apart = {key: dict(rows) for key, rows in (memo or {}).items()}  # (its rows stay its own)
-            both(candidates, moving, others, constraints, tolerance, True, apart)
+    def both(candidates, moving, others, constraints, tolerance, memo=None, valid_only=False):
         known = {key for rows in (memo or {}).values() for key in rows if key is not None}
         reused = any(id(op) in known for op in candidates)
-        table = table_of(candidates, moving, others, constraints, tolerance, per_constraint, memo, valid_only)
-        want = reference_screen(candidates, moving, others, constraints, tolerance, per_constraint)
+        table = table_of(candidates, moving, others, constraints, tolerance, memo, valid_only)
+        want = reference_screen(candidates, moving, others, constraints, tolerance)
         got = [table.screened(i) for i in table.order]
         assert len(got) == len(want)
         for i, g, w in zip(table.order, got, want):
@@ -266,7 +260,7 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
             assert same_screened(g, w)
             assert table.nbroken[i] == len(g.broken) and table.index[i] == g.index
             assert table.cost[i] == g.cost and table.finite[i] == bool(np.all(np.isfinite(g.f)))
-        seen["breaking" if per_constraint else "plain"] += 1
+        seen["plain"] += 1
         seen["rows"] += len(got)
         seen["reused"] += reused
         seen["cut short"] += sum(len(g.broken) < len(w.broken) for g, w in zip(got, want))
@@ -274,7 +268,7 @@ def test_screen_tables_hold_every_row_of_plain_screening(monkeypatch):
 
     monkeypatch.setattr(propagate_module, "screen_table", both)
     solve_fixtures()
-    assert seen["plain"] > 20 and seen["breaking"] > 2 and seen["rows"] > 1000
+    assert seen["plain"] > 20 and seen["rows"] > 1000
     assert seen["reused"] > 2  # rows a search had screened before, taken from its memo
     assert seen["cut short"] > 100  # candidates no longer checked after a broken constraint
 
@@ -583,11 +577,11 @@ def test_neighbour_candidates_keep_the_borrowed_ops_first():
         assert got == want and [type(op) for op in got] == [type(op) for op in want]
 
 
-def eager_least_breaking(self, table, constraints, rest):
+def eager_least_breaking(self, screened, constraints, rest):
     """The choice of a breaking-edit as first written: every row screened and ranked, the
     best ranked within 1% of the least error among the edits not too distorting."""
-    rows = table.order[(table.nbroken[table.order] < constraints) & np.isfinite(table.cost[table.order])]
-    ranked = self.rank([table.screened(i) for i in rows], rest)
+    rows = [s for s in screened if len(s.broken) < constraints and np.isfinite(s.cost)]
+    ranked = self.rank(rows, rest)
     if not ranked:
         return None
     least = min(s.cost for s in ranked)
@@ -597,9 +591,9 @@ def eager_least_breaking(self, table, constraints, rest):
 def test_breaking_edits_screened_lazily_are_those_of_screening_every_row(monkeypatch):
     """Breaking-edit searches bound every row's errors and evaluate only the rows the choice
     reads (breaking.py). Every bound must be at most the row's cost, every evaluated row
-    must be bitwise the eager table's (screen_table with per_constraint), in its order,
-    and the choice must be the one ranking every screened row gives; most rows are never
-    evaluated."""
+    must be bitwise the one of screening every candidate from each constraint afresh, in
+    its order, and the choice must be the one ranking every screened row gives; most rows
+    are never evaluated."""
     from parsel_aep import breaking
     from parsel_aep import propagate as propagate_module
     from parsel_aep.propagate import Propagation
@@ -609,8 +603,7 @@ def test_breaking_edits_screened_lazily_are_those_of_screening_every_row(monkeyp
 
     def recorded(candidates, moving, others, constraints, tolerance, memo=None):
         table = table_of(candidates, moving, others, constraints, tolerance, memo)
-        eager = screening.screen_table(candidates, moving, others, constraints, tolerance, per_constraint=True)
-        made.append((table, eager))
+        made.append((table, reference_screen(candidates, moving, others, constraints, tolerance, True)))
         return table
 
     lazy = Propagation.least_breaking
@@ -626,15 +619,16 @@ def test_breaking_edits_screened_lazily_are_those_of_screening_every_row(monkeyp
         seen["searches"] += 1
         seen["rows"] += len(table.index)
         seen["evaluated"] += int(table.known.sum())
-        # every row, evaluated now, is the eager table's, in the same order
+        # every row, evaluated now, is the one screened afresh, in the same order
         assert table.bound.shape == table.cost.shape
         table.evaluate(np.arange(len(table.index)))
         assert np.all(table.bound[table.finite] <= table.cost[table.finite])
         order = np.lexsort((table.generated, table.nbroken, table.index))
-        assert order.tobytes() == eager.order.tobytes()
-        for i in eager.order:
-            assert same_screened(table.screened(i), eager.screened(i))
-            assert table.nbroken[i] == eager.nbroken[i] and table.cost[i] == eager.cost[i]
+        assert len(order) == len(eager)
+        for i, w in zip(order, eager):
+            assert same_screened(table.screened(i), w)
+            assert table.nbroken[i] == len(w.broken) and table.cost[i] == w.cost
+            assert table.finite[i] == bool(np.all(np.isfinite(w.f)))
         return got
 
     monkeypatch.setattr(propagate_module, "breaking_table", recorded)

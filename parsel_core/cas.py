@@ -96,6 +96,16 @@ class CASBackend(ABC):
         offset = self.subs(expr, {unknown: self.number(0)})
         return self.simplify(-offset / slope)
 
+    def linear_combination(self, weights: Sequence[float], terms: Sequence) -> object:
+        """``sum(w * t)`` over the weights above 1e-15 in magnitude, the products added one
+        at a time in order (the amounts edit propagation derives are such sums of residual
+        terms). A backend may override it with a faster way to build the same expression."""
+        total = self.number(0)
+        for w, term in zip(weights, terms):
+            if abs(w) > 1e-15:
+                total = total + self.number(float(w)) * term
+        return total
+
     def corners(self, corners: np.ndarray) -> np.ndarray:
         """Numeric corners as an object array of backend numbers."""
         out = np.empty(np.shape(corners), dtype=object)

@@ -44,11 +44,8 @@ def symbolic_residual(constraints: Sequence[Relation], corners: Mapping[str, np.
 
 
 def linear_combination(backend: CASBackend, weights: np.ndarray, terms: Sequence) -> object:
-    total = backend.number(0)
-    for w, term in zip(weights, terms):
-        if abs(w) > 1e-15:
-            total = total + backend.number(float(w)) * term
-    return total
+    """``sum(w * t)`` of residual terms by the backend (:meth:`CASBackend.linear_combination`)."""
+    return backend.linear_combination(weights, terms)
 
 
 def affine_amount(backend: CASBackend, slope: np.ndarray, residual: Sequence) -> object:

@@ -51,6 +51,23 @@ class SymengineBackend(CASBackend):
             return symengine.Integer(int(value))
         return symengine.RealDouble(float(value))
 
+    def linear_combination(self, weights: Sequence[float], terms: Sequence) -> object:
+        """The shared loop's expression, object for object, with the products of float terms
+        taken in Python: symengine multiplies two doubles as IEEE does and turns a zero
+        product into an exact 0, which adding leaves out, so adding ``w * t`` as a float (if
+        not zero) is the same step without building two numbers first (most residual terms
+        of a joint edit are floats: constraints among the edited parts themselves)."""
+        total = self.number(0)
+        for w, term in zip(weights, terms):
+            if abs(w) > 1e-15:
+                if type(term) is float:
+                    product = float(w) * term
+                    if product != 0.0:
+                        total = total + product
+                else:
+                    total = total + self.number(float(w)) * term
+        return total
+
     def functions(self) -> Mapping[str, Callable]:
         return self._functions
 

@@ -64,6 +64,7 @@ from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
 from parsel_core.blas import one_blas_thread
+from parsel_core.collector import fewer_collections
 from parsel_core.errors import ParselError, UnknownPartError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
@@ -1199,8 +1200,9 @@ def propagate(request: SolveRequest) -> SolveResult:
     BLAS runs on one thread throughout: the systems are small (at most a few hundred
     rows), OpenBLAS's threads cost many times their work in CPU time on a busy machine,
     and their rounding depends on the thread count, so one thread also makes the
-    program the same bits on every machine."""
-    with one_blas_thread():
+    program the same bits on every machine. The cyclic garbage collector runs less
+    often meanwhile (parsel_core.collector)."""
+    with one_blas_thread(), fewer_collections():
         return Propagation(request).run()
 
 

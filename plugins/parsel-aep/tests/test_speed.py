@@ -758,3 +758,33 @@ def test_lazy_variants_come_as_sorting_all_the_solvable_ones(seed):
     lead = made[variants[index][0][0]]
     if lead is not None and not lead.fails and lead.score == bound:  # it comes first, the rest unsolved
         assert got[0] is lead and solved_for_first == 1
+
+
+def test_aep_solves_with_fewer_garbage_collections(monkeypatch):
+    """The solve runs inside parsel_core.collector.fewer_collections, which is left on return."""
+    import gc
+
+    from parsel_aep import propagate
+    from parsel_core.collector import SOLVE_THRESHOLD
+    from parsel_core.examples import tiny_table
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.plugins import solvers
+    from parsel_core.program import Program
+
+    seen = []
+
+    class Recording(propagate.Propagation):
+        def run(self):
+            seen.append(gc.get_threshold()[0])
+            return super().run()
+
+    monkeypatch.setattr(propagate, "Propagation", Recording)
+    previous = gc.get_threshold()
+    gc.set_threshold(700, *previous[1:])
+    try:
+        result = solvers()["aep"].run(SolveRequest(tiny_table(), Program.from_text(
+            "scale_1d(top, origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)")))
+        assert seen == [SOLVE_THRESHOLD] and result.program.ops
+        assert gc.get_threshold()[0] == 700
+    finally:
+        gc.set_threshold(*previous)

@@ -540,6 +540,8 @@ def _run_part_ops(ops: Sequence[EditOp], shape: ShapeGraph, corners: dict[str, A
             targets += list(shape.relations[op.operand].members)
         shift = shifts[k] if shifts is not None else None
         for target in targets:
+            if target not in corners:  # a part the caller left out (symbolic_corners' ``only``)
+                continue
             if shift is None:
                 corners[target] = op.apply(corners[target], amount, math_ns)
             else:  # the op with its points carried by the shift (Follow): p -> op(p - d) + d
@@ -665,7 +667,9 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     """Corners as (8, 3) object arrays of expressions in the control parameters.
 
     Parts no op touches keep their float corners. ``only`` limits the work to the
-    parts a caller needs (relations of a few parts, say).
+    parts a caller needs (relations of a few parts, say): the ops of the others are not
+    applied (a part's corners depend only on the ops on it, on its group and, in a layered
+    program, on the parts its ops follow).
     """
     program.validate(shape)
     rest = shape.rest_corners()
@@ -679,7 +683,7 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     # Touched parts start as CAS numbers so every corner entry is an expression.
     followed = {f.part for f in program.follows}
     corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]
-                               for pid in rest if pid in wanted or pid in touched or pid in followed}
+                               for pid in rest if pid in wanted or pid in followed}
     corners = _apply_part_ops(program, shape, corners, symbolic_amounts(program, backend), opmath)
     return {pid: c for pid, c in corners.items() if pid in wanted}
 

@@ -196,3 +196,23 @@ def test_a_follow_of_an_unknown_part_names_it():
                   (Follow("sofa", (0.0, 0.0, 0.0), (1,)),))
     with pytest.raises(UnknownPartError, match="no part 'sofa'"):
         evaluate(bad, load_shape("chair"), {})
+
+
+def test_symbolic_corners_of_a_few_parts_are_those_of_all_parts(parsel_shape, parsel_backend):
+    """``only`` leaves the other parts' ops unapplied and changes nothing for the parts asked
+    for: ops on a group's virtual parent, a laid-out group and an outer layer following a
+    point of another part."""
+    from parsel_core.loading import load_shape
+    from parsel_core.program import symbolic_corners
+
+    grouped = Program.from_text(FIVE_OPS + "translate(slat_row, dir=(0, 1, 0), amount=x * y)\n")
+    for shape, program in ((parsel_shape, Program.from_text(FIVE_OPS)), (parsel_shape, grouped),
+                           (load_shape("chair"), _outer_program())):
+        full = symbolic_corners(program, shape, parsel_backend)
+        parts = sorted(full)
+        for only in [[p] for p in parts] + [parts[:2], parts[-3:]]:
+            some = symbolic_corners(program, shape, parsel_backend, only=only)
+            assert sorted(some) == sorted(only)
+            for pid in only:
+                assert [str(v) for v in np.asarray(some[pid]).ravel()] == \
+                       [str(v) for v in np.asarray(full[pid]).ravel()], pid

@@ -632,11 +632,24 @@ def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray]
 def op_amounts(program: Program, values: Mapping[str, Any]) -> list[np.ndarray]:
     """Each op's amount at the parameter ``values`` (scalars or equal-shaped arrays), as
     arrays of their common shape."""
-    functions = numpy_functions()
+    batch, arrays = _amount_arrays(values)
+    return [_amount(op, arrays, batch) for op in program.ops]
+
+
+def op_amount(op: EditOp, values: Mapping[str, Any]) -> np.ndarray:
+    """One op's amount at the parameter ``values``, as :func:`op_amounts` makes it."""
+    batch, arrays = _amount_arrays(values)
+    return _amount(op, arrays, batch)
+
+
+def _amount_arrays(values: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, np.ndarray]]:
     batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
-    arrays = {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
-    return [np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, functions), dtype=float), batch)
-            for op in program.ops]
+    return batch, {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
+
+
+def _amount(op: EditOp, arrays: Mapping[str, np.ndarray], batch: tuple[int, ...]) -> np.ndarray:
+    return np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, numpy_functions()), dtype=float),
+                           batch)
 
 
 def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | None = None) -> Evaluation:

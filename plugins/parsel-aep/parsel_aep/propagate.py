@@ -70,7 +70,15 @@ from parsel_core.graph import GROUP_KINDS, ShapeGraph
 from parsel_core.interfaces import SolveRequest, SolveResult
 from parsel_core.ops import ChangeCount, EditOp, KeepFixed, Scale1D, Translate
 from parsel_core.plugins import get_cas_backend
-from parsel_core.program import Parameter, Program, evaluate, laid_out_groups, symbolic_corners
+from parsel_core.program import (
+    NUMPY_MATH,
+    Parameter,
+    Program,
+    evaluate,
+    laid_out_groups,
+    op_amount,
+    symbolic_corners,
+)
 from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, TranslationSymmetry
 from parsel_core.report import batch_relation_errors, check_program, relation_error, sliding_members, tolerance_for
 
@@ -239,6 +247,8 @@ class Propagation:
         #: Recent programs' corners (:meth:`corners`) and relation errors by what they read
         #: (:meth:`error`): the loop, the repair and the joint pass check the same states again.
         self._corners: dict[tuple, dict[str, np.ndarray]] = {}
+        #: Each part's corners by the ops that move it (:meth:`parts_of`).
+        self._part_corners: dict[tuple, tuple[tuple[EditOp, ...], np.ndarray]] = {}
         self._errors: dict[tuple, float] = {}
         self._digests: dict[int, tuple[np.ndarray, bytes]] = {}
 
@@ -255,13 +265,47 @@ class Propagation:
         key = tuple(map(id, ops))
         known = self._corners.get(key)
         if known is None:
-            if len(self._corners) * len(self.rest) * len(self.xs) >= _REMEMBERED_CORNERS:
+            if (len(self._corners) * len(self.rest) + len(self._part_corners)) * len(self.xs) >= _REMEMBERED_CORNERS:
                 self._corners.clear()
-            parts = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs}).parts
-            for array in parts.values():
-                array.flags.writeable = False
+                self._part_corners.clear()
+            program = self.program(ops)
+            if all(op.acts_on == "part" for op in ops) and len(program.layer_slices) == 1:
+                parts = self.parts_of(program)
+            else:  # group layouts, layers: the whole evaluation
+                parts = evaluate(program, self.shape, {self.parameter.name: self.xs}).parts
+                for array in parts.values():
+                    array.flags.writeable = False
             known = self._corners[key] = (tuple(ops), parts)
         return dict(known[1])
+
+    def parts_of(self, program: Program) -> dict[str, np.ndarray]:
+        """``evaluate(program).parts`` for a program of part ops in one layer, part by part.
+
+        There a part's corners are its rest corners under the ops that move it (its own and
+        its group's), applied in order, each at its amounts at the samples: a part whose
+        ops are the same objects as in an earlier program gets that program's array (the
+        same ops on the same arrays: the same bits). The loop, the repair pass and the
+        joint pass mostly try programs that differ from the last in a part or two."""
+        program.validate(self.shape)
+        moving: dict[str, list[EditOp]] = {pid: [] for pid in self.rest}
+        for op in program.ops:
+            moving[op.operand].append(op)
+            if op.operand in self.shape.virtual_parents:
+                for member in self.shape.relations[op.operand].members:
+                    moving[member].append(op)
+        values = {self.parameter.name: self.xs}
+        out = {}
+        for pid, ops in moving.items():
+            key = (pid, tuple(map(id, ops)))
+            known = self._part_corners.get(key)
+            if known is None:
+                corners = np.broadcast_to(self.rest[pid], (len(self.xs), 8, 3)).copy()
+                for op in ops:
+                    corners = op.apply(corners, op_amount(op, values)[..., None, None], NUMPY_MATH)
+                corners.flags.writeable = False
+                known = self._part_corners[key] = (tuple(ops), corners)
+            out[pid] = known[1]
+        return out
 
     def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
         """:func:`relation_error`, remembered by what it reads: the members' corners (by a

@@ -674,14 +674,23 @@ def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
 
 
 def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
-    """A run remembers programs' corners and relation errors by what they read; every
-    answer, remembered or not, must be the fresh evaluation's, to the bit."""
+    """A run remembers programs' corners (whole, and each part's by the ops moving it) and
+    relation errors by what they read; every answer, remembered or not, must be the fresh
+    evaluation's, to the bit."""
     from parsel_aep import propagate as propagate_module
     from parsel_aep.propagate import Propagation
     from parsel_core.program import evaluate
 
-    corners_of, error_of = Propagation.corners, Propagation.error
-    seen = {"corners": 0, "corners remembered": 0, "errors": 0, "errors remembered": 0}
+    corners_of, error_of, parts_of = Propagation.corners, Propagation.error, Propagation.parts_of
+    seen = {"corners": 0, "corners remembered": 0, "errors": 0, "errors remembered": 0, "parts": 0,
+            "parts reused": 0}
+
+    def parts(self, program):
+        before = len(self._part_corners)
+        got = parts_of(self, program)
+        seen["parts"] += len(got)
+        seen["parts reused"] += len(got) - (len(self._part_corners) - before)
+        return got
 
     def corners(self, ops):
         remembered = tuple(map(id, ops)) in self._corners
@@ -703,8 +712,10 @@ def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
 
     monkeypatch.setattr(Propagation, "corners", corners)
     monkeypatch.setattr(Propagation, "error", error)
+    monkeypatch.setattr(Propagation, "parts_of", parts)
     solve_fixtures()
     assert seen["corners remembered"] > 5 and seen["errors remembered"] > seen["errors"] / 2
+    assert seen["parts reused"] > seen["parts"] / 2  # (programs part by part, mostly reused)
 
 
 class Variant:

@@ -35,16 +35,12 @@ def one_blas_thread() -> Iterator[None]:
     solver's inner least-squares steps, called thousands of times per solve, then cost
     nothing extra."""
     depth = getattr(_depth, "value", 0)
-    if depth:
-        _depth.value = depth + 1
-        try:
+    _depth.value = depth + 1
+    try:
+        if depth:
             yield
-        finally:
-            _depth.value = depth
-        return
-    with _controller().limit(limits=1, user_api="blas"):
-        _depth.value = 1
-        try:
-            yield
-        finally:
-            _depth.value = 0
+        else:
+            with _controller().limit(limits=1, user_api="blas"):
+                yield
+    finally:
+        _depth.value = depth

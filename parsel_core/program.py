@@ -530,16 +530,21 @@ def laid_out_groups(program: Program) -> set[str]:
     return {op.operand for op in program.ops if isinstance(op, GroupOp)}
 
 
+def op_targets(op: EditOp, shape: ShapeGraph, anchors_only: Iterable[str] = ()) -> list[str]:
+    """The parts a part op moves: its operand and, for a group's virtual parent, every
+    member too (unless the group is laid out top-down, in ``anchors_only``)."""
+    if op.operand in shape.virtual_parents and op.operand not in anchors_only:
+        return [op.operand, *shape.relations[op.operand].members]
+    return [op.operand]
+
+
 def _run_part_ops(ops: Sequence[EditOp], shape: ShapeGraph, corners: dict[str, Any], amounts: Sequence[Any],
                   math_ns: Any, anchors_only: set[str], shifts: Sequence[Any] | None = None) -> dict[str, Any]:
     for k, (op, amount) in enumerate(zip(ops, amounts)):
         if op.acts_on != "part":
             continue
-        targets = [op.operand]
-        if op.operand in shape.virtual_parents and op.operand not in anchors_only:
-            targets += list(shape.relations[op.operand].members)
         shift = shifts[k] if shifts is not None else None
-        for target in targets:
+        for target in op_targets(op, shape, anchors_only):
             if target not in corners:  # a part the caller left out (symbolic_corners' ``only``)
                 continue
             if shift is None:
@@ -633,13 +638,14 @@ def op_amounts(program: Program, values: Mapping[str, Any]) -> list[np.ndarray]:
     """Each op's amount at the parameter ``values`` (scalars or equal-shaped arrays), as
     arrays of their common shape."""
     batch, arrays = _amount_arrays(values)
-    return [_amount(op, arrays, batch) for op in program.ops]
+    functions = numpy_functions()
+    return [_amount(op, arrays, batch, functions) for op in program.ops]
 
 
 def op_amount(op: EditOp, values: Mapping[str, Any]) -> np.ndarray:
     """One op's amount at the parameter ``values``, as :func:`op_amounts` makes it."""
     batch, arrays = _amount_arrays(values)
-    return _amount(op, arrays, batch)
+    return _amount(op, arrays, batch, numpy_functions())
 
 
 def _amount_arrays(values: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str, np.ndarray]]:
@@ -647,9 +653,8 @@ def _amount_arrays(values: Mapping[str, Any]) -> tuple[tuple[int, ...], dict[str
     return batch, {k: np.broadcast_to(np.asarray(v, dtype=float), batch) for k, v in values.items()}
 
 
-def _amount(op: EditOp, arrays: Mapping[str, np.ndarray], batch: tuple[int, ...]) -> np.ndarray:
-    return np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, numpy_functions()), dtype=float),
-                           batch)
+def _amount(op: EditOp, arrays: Mapping[str, np.ndarray], batch: tuple[int, ...], functions) -> np.ndarray:
+    return np.broadcast_to(np.asarray(parse_expression(op.amount).build(arrays, functions), dtype=float), batch)
 
 
 def evaluate(program: Program, shape: ShapeGraph, values: Mapping[str, Any] | None = None) -> Evaluation:
@@ -687,12 +692,7 @@ def symbolic_corners(program: Program, shape: ShapeGraph, backend: CASBackend,
     program.validate(shape)
     rest = shape.rest_corners()
     wanted = set(rest) if only is None else set(only)
-    touched = set()
-    for op in program.ops:
-        if op.acts_on == "part":
-            touched.add(op.operand)
-            if op.operand in shape.virtual_parents:
-                touched.update(shape.relations[op.operand].members)
+    touched = {target for op in program.ops if op.acts_on == "part" for target in op_targets(op, shape)}
     # Touched parts start as CAS numbers so every corner entry is an expression.
     followed = {f.part for f in program.follows}
     corners: dict[str, Any] = {pid: backend.corners(rest[pid]) if pid in touched else rest[pid]

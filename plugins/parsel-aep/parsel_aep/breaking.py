@@ -110,8 +110,7 @@ def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray
             f = f[rows]
             # The residual at the last sample, element by element the one of the whole residual
             at_end = _affine_residual(system, rows, f, last)                           # (N, 1, K)
-            blocks.append(_Block("affine", rows, f, np.full((len(rows), len(system.slices)), np.nan),
-                                 np.zeros((len(rows), len(system.slices)), dtype=bool)))
+            blocks.append(_pending("affine", rows, f, len(system.slices)))
             bounds.append(_cost_bound(_max_abs_per_slice(at_end, system.slices), allowed))
             known.append(np.zeros(len(rows), dtype=bool))
         if system.rotations:
@@ -125,8 +124,7 @@ def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray
                     + np.abs(system.offset[rows]))                                      # (N, K)
             slack = slice_maxima(1e-9 * size, system.slices)
             errors = np.maximum(_max_abs_per_slice(at_end, system.slices) - slack, 0.0)
-            blocks.append(_Block("rotation", rows, f_all, np.full((len(rows), len(system.slices)), np.nan),
-                                 np.zeros((len(rows), len(system.slices)), dtype=bool)))
+            blocks.append(_pending("rotation", rows, f_all, len(system.slices)))
             bounds.append(_cost_bound(errors, allowed))
             known.append(np.zeros(len(rows), dtype=bool))
         for block in _compound_blocks(system, columns, allowed):
@@ -134,6 +132,11 @@ def breaking_table(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray
             bounds.append(np.zeros(1))
             known.append(np.ones(1, dtype=bool))
     return BreakingTable(system, blocks, bounds, known, allowed)
+
+
+def _pending(kind: str, rows: np.ndarray, f: np.ndarray, relations: int) -> _Block:
+    """A block of ``rows`` whose errors (NaN until evaluated) are still to compute."""
+    return _Block(kind, rows, f, np.full((len(rows), relations), np.nan), np.zeros((len(rows), relations), dtype=bool))
 
 
 def _cost_bound(errors: np.ndarray, allowed: np.ndarray) -> np.ndarray:

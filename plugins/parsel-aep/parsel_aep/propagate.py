@@ -77,6 +77,7 @@ from parsel_core.program import (
     evaluate,
     laid_out_groups,
     op_amount,
+    op_targets,
     symbolic_corners,
 )
 from parsel_core.relations import Attachment, ReflectionSymmetry, Relation, TranslationSymmetry
@@ -289,11 +290,10 @@ class Propagation:
         program.validate(self.shape)
         moving: dict[str, list[EditOp]] = {pid: [] for pid in self.rest}
         for op in program.ops:
-            moving[op.operand].append(op)
-            if op.operand in self.shape.virtual_parents:
-                for member in self.shape.relations[op.operand].members:
-                    moving[member].append(op)
+            for target in op_targets(op, self.shape):
+                moving[target].append(op)
         values = {self.parameter.name: self.xs}
+        amounts: dict[int, np.ndarray] = {}  # (an op on a group's parent moves every member)
         out = {}
         for pid, ops in moving.items():
             key = (pid, tuple(map(id, ops)))
@@ -301,7 +301,10 @@ class Propagation:
             if known is None:
                 corners = np.broadcast_to(self.rest[pid], (len(self.xs), 8, 3)).copy()
                 for op in ops:
-                    corners = op.apply(corners, op_amount(op, values)[..., None, None], NUMPY_MATH)
+                    amount = amounts.get(id(op))
+                    if amount is None:
+                        amount = amounts[id(op)] = op_amount(op, values)[..., None, None]
+                    corners = op.apply(corners, amount, NUMPY_MATH)
                 corners.flags.writeable = False
                 known = self._part_corners[key] = (tuple(ops), corners)
             out[pid] = known[1]

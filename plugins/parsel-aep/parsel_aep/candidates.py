@@ -16,7 +16,6 @@ so for a box ~200 candidates remain instead of thousands.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import itertools
 import math
 from collections.abc import Iterable, Sequence
@@ -55,6 +54,20 @@ def _vec(v: np.ndarray) -> tuple[float, float, float]:
     return tuple(float(c) + 0.0 for c in np.round(v, 12))
 
 
+def _vecs(rows) -> list[tuple[float, float, float]]:
+    """:func:`_vec` of every row (rounded together: the same values)."""
+    return [tuple(row) for row in (np.round(np.asarray(rows, dtype=float), 12) + 0.0).tolist()]
+
+
+def _points(rows) -> list[tuple[float, float, float]]:
+    """:func:`_vec` of every row as an op stores it in a point field: the same floats, when
+    finite (``as_vector`` only checks a point), else through :func:`_vector` (which raises)."""
+    vecs = _vecs(rows)
+    if all(math.isfinite(c) for v in vecs for c in v):
+        return vecs
+    return [_vector(Scale1D, "origin", v) for v in vecs]
+
+
 def candidate_family(op: EditOp) -> str:
     """The hint family of a candidate (``translate``, ``face_scale``, ``free_scale_1d`` ...)."""
     family = getattr(op, "family", None)
@@ -89,71 +102,62 @@ def own_candidates(part: str, hexahedron: Hexahedron, hint: str | None = None) -
 def _own_candidates(part: str, hexahedron: Hexahedron, hint: str | None) -> list[EditOp]:
     points = hexahedron.feature_points
     dirs = directions(hexahedron)
-    out: dict[tuple, EditOp] = {}
-    # Keys first, each op built only the first time its key appears (the first one is kept).
-    # Points and directions are normalised once, as the ops' constructors store them.
-    point_vecs = [_vector(Scale1D, "origin", _vec(p)) for p in points]
-    dir_vecs = [_vector(Scale1D, "dir", _vec(d)) for d in dirs]
-    dir_keys = [_key(d) for d in dirs]
-    make = functools.partial(_make, normalised=True)
-
-    for dv, dk in zip(dir_vecs, dir_keys):
-        key = ("translate", dk)
-        if key not in out:
-            out[key] = make(Translate, part, dir=dv)
-    for n, nv, nk in zip(dirs, dir_vecs, dir_keys):
+    # Each family's merge key depends on one quantity per point (a height along a direction,
+    # a point's projection on a plane, the point itself), so an op is new exactly where that
+    # quantity first appears: the first of each key is kept, in generation order. Points and
+    # directions are normalised once, as the ops' constructors store them.
+    point_vecs = _points(points)
+    dir_vecs = [_vector(Scale1D, "dir", d) for d in _vecs(dirs)]
+    make = _Maker(part)
+    ops = [make(Translate, None, dir=dv) for dv in dir_vecs]
+    for n, nv in zip(dirs, dir_vecs):
         along = [p @ n for p in points]
-        heights = [round(float(a), 7) for a in along]
+        new_height = _first_seen([round(float(a), 7) for a in along])
         # (each point's projection on the plane normal to n, rounded as _key rounds it)
-        planes = np.round(points - np.array(along)[:, None] * n, 7) + 0.0
-        for pv, height, plane in zip(point_vecs, heights, map(tuple, planes)):
-            key = ("scale_1d", nk, height)
-            if key not in out:
-                out[key] = make(Scale1D, part, origin=pv, dir=nv)
-            key = ("scale_2d", nk, plane)
-            if key not in out:
-                out[key] = make(Scale2D, part, origin=pv, normal=nv)
-            key = ("rotate", nk, plane)
-            if key not in out:
-                out[key] = make(Rotate, part, origin=pv, axis=nv)
-        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
-            if abs(float(n @ d)) > 1e-6:
-                continue
-            for pv, height in zip(point_vecs, heights):
-                key = ("shear", nk, dk, height)
-                if key not in out:
-                    out[key] = make(Shear, part, origin=pv, normal=nv, dir=dv)
-    for key, pv in zip(map(tuple, np.round(points, 7) + 0.0), point_vecs):
-        key = ("scale_3d", key)
-        if key not in out:
-            out[key] = make(Scale3D, part, origin=pv)
+        new_plane = _first_seen(map(tuple, np.round(points - np.array(along)[:, None] * n, 7) + 0.0))
+        for pv, height, plane in zip(point_vecs, new_height, new_plane):
+            if height:
+                ops.append(make(Scale1D, None, origin=pv, dir=nv))
+            if plane:  # (a scale_2d and a rotation about n merge by the same projection)
+                ops.append(make(Scale2D, None, origin=pv, normal=nv))
+                ops.append(make(Rotate, None, origin=pv, axis=nv))
+        for d, dv in zip(dirs, dir_vecs):
+            if abs(float(n @ d)) <= 1e-6:  # a shear merges by the height along its normal
+                ops += [make(Shear, None, origin=pv, normal=nv, dir=dv)
+                        for pv, height in zip(point_vecs, new_height) if height]
+    ops += [make(Scale3D, None, origin=pv)
+            for pv, new in zip(point_vecs, _first_seen(map(tuple, np.round(points, 7) + 0.0))) if new]
     corners = hexahedron.corners
     for face in FACE_NAMES:
+        feature = _canonical(face)
         face_points = corners[list(feature_corners(face))]
         normal = hexahedron.face_normal(face)
         face_points = np.concatenate([face_points, face_points.mean(axis=0, keepdims=True)])
         face_vecs = None
-        for d, dv, dk in zip(dirs, dir_vecs, dir_keys):
-            key = ("face_translate", face, dk)
-            if key not in out:
-                out[key] = make(Translate, part, feature=face, dir=dv)
+        for d, dv in zip(dirs, dir_vecs):
+            ops.append(make(Translate, feature, dir=dv))
             if abs(float(d @ normal)) > 0.9:
                 continue  # scaling a face along its normal only moves it: a face translation
             if face_vecs is None:
-                face_vecs = [_vector(Scale1D, "origin", _vec(p)) for p in face_points]
-            for p, pv in zip(face_points, face_vecs):
-                key = ("face_scale", face, dk, round(float(p @ d), 7))
-                if key not in out:
-                    out[key] = make(Scale1D, part, feature=face, origin=pv, dir=dv)
+                face_vecs = _points(face_points)
+            ops += [make(Scale1D, feature, origin=pv, dir=dv)
+                    for pv, new in zip(face_vecs, _first_seen([round(float(p @ d), 7) for p in face_points])) if new]
     for edge in EDGE_NAMES:
-        for dv, dk in zip(dir_vecs, dir_keys):
-            key = ("edge_translate", edge, dk)
-            if key not in out:
-                out[key] = make(Translate, part, feature=edge, dir=dv)
-    ops = list(out.values())
+        feature = _canonical(edge)
+        ops += [make(Translate, feature, dir=dv) for dv in dir_vecs]
     if hint in HINT_TYPES:
         ops = [op for op in ops if candidate_family(op) in HINT_TYPES[hint]]
     return ops
+
+
+def _first_seen(keys: Iterable) -> list[bool]:
+    """Whether each key is the first of its value."""
+    seen: set = set()
+    out = []
+    for key in keys:
+        out.append(key not in seen)
+        seen.add(key)
+    return out
 
 
 def neighbour_candidates(part: str, hexahedron: Hexahedron, neighbour_ops: Sequence[EditOp],
@@ -199,50 +203,72 @@ _ABOUT_SIZE = 1024
 def _about_neighbours(part: str, neighbour_hexahedra: Sequence[Hexahedron]) -> dict[tuple, EditOp]:
     """Ops of ``part`` about the neighbours' feature points and along their axes, merged
     (first of each key kept, in order). What a neighbour offers does not depend on the
-    part, so each neighbour's keys and normalised parameters are worked out once
+    part, so each neighbour's keys and normalised fields are worked out once
     (:func:`_about_neighbour`) and only the ops are built for each part."""
     out: dict[tuple, EditOp] = {}
+    new = object.__new__
     for neighbour in neighbour_hexahedra:
         for key, cls, params, fields in _about_neighbour(neighbour):
             if key not in out:
-                out[key] = cls(part, "f", **params) if fields is None else _build(cls, part, fields)
+                if fields is None:
+                    out[key] = cls(part, "f", **params)
+                else:  # (_build, with the fields in one dictionary)
+                    op = out[key] = new(cls)
+                    op.__dict__.update(fields)
+                    op.__dict__["operand"] = part
     return out
 
 
-def _about_neighbour(neighbour: Hexahedron) -> tuple[tuple[tuple, type, dict, list | None], ...]:
-    """``(merge key, class, parameters, normalised fields or None)`` of every op about one
-    neighbour's feature points and along its axes, in order, each key once."""
+def _about_neighbour(neighbour: Hexahedron) -> tuple[tuple[tuple, type, dict, dict | None], ...]:
+    """``(merge key, class, parameters, the op's fields with a placeholder operand, or
+    None)`` of every op about one neighbour's feature points and along its axes, in order,
+    each key once."""
     cached = _ABOUT.get(corners := np.asarray(neighbour.corners, dtype=float).tobytes())
     if cached is not None:
         return cached
-    specs: dict[tuple, tuple[tuple, type, dict, list | None]] = {}
+    specs: dict[tuple, tuple[tuple, type, dict, dict | None]] = {}
+    own = {cls: _own_fields(cls) for cls in (Rotate, Scale1D, Translate, Scale3D)}
 
-    def add(cls: type, **params) -> None:
-        fields = _normalised(cls, "p", params)
-        if fields is None:  # a class _make leaves to its constructor
+    def add(cls: type, params: dict, normalised: dict) -> None:
+        names = own[cls]
+        if names is None:  # a class _make leaves to its constructor
             op = cls("p", "f", **params)
             key = (op.name, tuple(sorted(op.params().items())))
+            fields = None
         else:
+            fields = [(name, normalised[name]) for name in names]
             key = (cls.name, tuple(sorted(fields)))
-        specs.setdefault(key, (key, cls, params, fields))
+            fields = {"operand": "p", "amount": "f", "feature": None, **dict(fields)}
+        if key not in specs:
+            specs[key] = (key, cls, params, fields)
 
-    points = [_vec(p) for p in neighbour.feature_points]
-    for n in directions(neighbour):
-        n = _vec(n)
-        for p in points:
-            add(Rotate, origin=p, axis=n)
-            add(Scale1D, origin=p, dir=n)
-        add(Translate, dir=n)
-    for p in points:
-        add(Scale3D, origin=p)
+    points = _vecs(neighbour.feature_points)
+    origins = _points(neighbour.feature_points)  # (every class stores a point alike)
+    for n in _vecs(directions(neighbour)):
+        unit = _vector(Scale1D, "dir", n)
+        for p, origin in zip(points, origins):
+            add(Rotate, {"origin": p, "axis": n}, {"origin": origin, "axis": unit})
+            add(Scale1D, {"origin": p, "dir": n}, {"origin": origin, "dir": unit})
+        add(Translate, {"dir": n}, {"dir": unit})
+    for p, origin in zip(points, origins):
+        add(Scale3D, {"origin": p}, {"origin": origin})
     if len(_ABOUT) >= _ABOUT_SIZE:
         _ABOUT.clear()
     out = _ABOUT[corners] = tuple(specs.values())
     return out
 
 
+def _own_fields(cls: type) -> tuple[str, ...] | None:
+    """The names of ``cls``'s own fields when :func:`_build` makes its ops as its
+    constructor does, else ``None``."""
+    if cls not in _LAYOUT:
+        _make(cls, "p")  # (checks the class)
+    own, exact = _LAYOUT[cls]
+    return tuple(name for name, _ in own) if exact else None
+
+
 def _build(cls: type, part: str, fields, feature: str | None = None) -> EditOp:
-    """The op :func:`_make` builds, from fields already normalised (:func:`_normalised`) and
+    """The op :func:`_make` builds, from fields already normalised (:func:`_vector`) and
     a canonical feature name: a frozen dataclass, its fields set as the constructor sets them."""
     op = object.__new__(cls)
     op.__dict__.update(operand=part, amount="f", feature=feature)
@@ -282,24 +308,6 @@ def _make(cls: type, part: str, feature: str | None = None, normalised: bool = F
     return _fast_make(cls, layout[0], part, feature, params, normalised)
 
 
-def _normalised(cls: type, part: str, params: dict) -> list[tuple[str, object]] | None:
-    """``list(cls(part, "f", **params).params().items())`` without building the op; ``None``
-    for a class :func:`_make` leaves to its constructor."""
-    layout = _LAYOUT.get(cls)
-    if layout is None:
-        _make(cls, part, **params)  # (checks the class)
-        layout = _LAYOUT[cls]
-    if not layout[1]:
-        return None
-    out = []
-    for name, default in layout[0]:
-        value = params.get(name, default)
-        if value is dataclasses.MISSING:
-            return None
-        out.append((name, _vector(cls, name, value)))
-    return out
-
-
 def _vector(cls: type, name: str, value):
     """The value ``EditOp.__post_init__`` stores for field ``name`` (vectors normalised)."""
     unit = name in cls.unit_fields
@@ -326,6 +334,24 @@ def _fast_make(cls: type, own, part: str, feature: str | None, params: dict, nor
             return cls(part, "f", feature=feature, **params)
         fields[name] = _vector(cls, name, value)
     return _build(cls, part, fields, None if feature is None else _canonical(feature))
+
+
+class _Maker:
+    """Builds ``part``'s candidate ops from normalised fields (in the class's field order)
+    and a canonical feature name: by :func:`_build` for a class it builds exactly as the
+    constructor does, given every field; by :func:`_make` otherwise."""
+
+    def __init__(self, part: str) -> None:
+        self.part = part
+        self.direct: dict[type, frozenset[str]] = {}
+
+    def __call__(self, cls: type, feature: str | None, **fields) -> EditOp:
+        names = self.direct.get(cls)
+        if names is None:
+            names = self.direct[cls] = frozenset(_own_fields(cls) or ())
+        if names and fields.keys() == names:
+            return _build(cls, self.part, fields, feature)
+        return _make(cls, self.part, feature, normalised=True, **fields)
 
 
 _CANONICAL: dict[str, str] = {}

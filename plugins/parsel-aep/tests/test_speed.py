@@ -95,6 +95,58 @@ def test_candidate_lists_are_the_same_built_lazily_and_cached(seed):
         assert first == reference_own_candidates("p", box, hint)
 
 
+def flat_and_aligned_boxes(rng) -> list[Hexahedron]:
+    """Boxes whose feature points share heights, planes and positions: an axis-aligned box
+    (three directions), a board thinner than the keys round (coincident points) and one turned about
+    a single axis."""
+    board = Hexahedron.from_bounds((0.1, 0.4, -0.3), (0.9, 0.4 + 1e-9, 0.3))
+    turn = np.array([[np.cos(0.3), 0.0, -np.sin(0.3)], [0.0, 1.0, 0.0], [np.sin(0.3), 0.0, np.cos(0.3)]])
+    return [Hexahedron.from_bounds(rng.normal(size=3), rng.normal(size=3) + 2.0), board,
+            Hexahedron(Hexahedron.from_bounds((-0.2, 0.0, -0.1), (0.2, 0.7, 0.1)).corners @ turn.T)]
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_candidates_of_boxes_with_shared_features_merge_as_before(seed):
+    rng = np.random.default_rng(seed)
+    boxes = flat_and_aligned_boxes(rng)
+    for box in boxes:
+        for hint in (None, "scale"):
+            got = candidates._own_candidates("p", box, hint)
+            assert got == reference_own_candidates("p", box, hint)
+            assert [vars(op) for op in got] == [vars(op) for op in reference_own_candidates("p", box, hint)]
+    about = list(candidates._about_neighbours("p", boxes).values())
+    assert about == reference_neighbour_candidates("p", boxes[0], [], boxes)
+    assert [vars(op) for op in about] == [vars(op) for op in reference_neighbour_candidates("p", boxes[0], [], boxes)]
+
+
+def test_candidates_of_a_class_built_by_its_constructor_are_the_same(monkeypatch):
+    """A class whose ops the fast path cannot build as its constructor does (here: marked
+    so) is built by the constructor; the lists stay the same."""
+    rng = np.random.default_rng(7)
+    box, neighbours = skewed_box(rng), [skewed_box(rng), flat_and_aligned_boxes(rng)[1]]
+    want_own = reference_own_candidates("p", box, None)
+    want_about = reference_neighbour_candidates("p", box, [], neighbours)
+    monkeypatch.setattr(candidates, "_ABOUT", {})
+    built = []
+    for cls in (Scale1D, Rotate):
+        candidates._own_fields(cls)  # (the layout is known first)
+        monkeypatch.setitem(candidates._LAYOUT, cls, (candidates._LAYOUT[cls][0], False))
+        monkeypatch.setattr(cls, "__post_init__", lambda op, check=cls.__post_init__: built.append(op) or check(op))
+    assert candidates._own_candidates("p", box, None) == want_own
+    assert len(built) == sum(type(op) in (Scale1D, Rotate) for op in want_own)  # each by its constructor
+    built.clear()
+    assert list(candidates._about_neighbours("p", neighbours).values()) == want_about
+    assert len(built) >= sum(type(op) in (Scale1D, Rotate) for op in want_about)
+
+
+def test_points_that_are_not_finite_are_refused_as_the_constructor_refuses_them():
+    from parsel_core.errors import ProgramFormatError
+
+    assert candidates._points([[0.5, -0.0, 1e-13]]) == [(0.5, 0.0, 0.0)]
+    with pytest.raises(ProgramFormatError, match="finite"):
+        candidates._points([[0.5, np.nan, 0.0]])
+
+
 def reference_own_candidates(part, hexahedron, hint):
     """own_candidates as first written (every op constructed, then merged)."""
     import itertools  # noqa: F401
@@ -149,19 +201,8 @@ def test_neighbour_candidates_merge_as_before():
     rng = np.random.default_rng(5)
     box, neighbours = skewed_box(rng), [skewed_box(rng), skewed_box(rng)]
     got = candidates.neighbour_candidates("p", box, [], neighbours)
-    out = {}
-    for neighbour in neighbours:
-        for n in candidates.directions(neighbour):
-            for p in neighbour.feature_points:
-                for op in (Rotate("p", "f", origin=candidates._vec(p), axis=candidates._vec(n)),
-                           Scale1D("p", "f", origin=candidates._vec(p), dir=candidates._vec(n))):
-                    out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
-            op = Translate("p", "f", dir=candidates._vec(n))
-            out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
-        for p in neighbour.feature_points:
-            op = Scale3D("p", "f", origin=candidates._vec(p))
-            out.setdefault((op.name, tuple(sorted(op.params().items()))), op)
-    assert got == list(out.values())
+    want = reference_neighbour_candidates("p", box, [], neighbours)
+    assert got == want and [vars(op) for op in got] == [vars(op) for op in want]
 
 
 def reference_screen(candidates, moving, others, constraints, tolerance, per_constraint=False):

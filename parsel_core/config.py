@@ -72,11 +72,11 @@ def config_path() -> Path:
 
 def load_settings() -> dict[str, Any]:
     """The ``[parsel]`` table of the configuration file (empty when there is none)."""
-    path = config_path()
-    if not path.is_file():
+    if not os.path.isfile(os.environ.get("PARSEL_CONFIG", "parsel.toml")):  # (read for every limit: cheaply)
         if "PARSEL_CONFIG" in os.environ:
-            raise ParselError(f"{path}: configuration file (PARSEL_CONFIG) does not exist")
+            raise ParselError(f"{config_path()}: configuration file (PARSEL_CONFIG) does not exist")
         return {}
+    path = config_path()
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:
@@ -146,15 +146,15 @@ def limit(name: str) -> float:
     entry = LIMITS[name]
     env = f"PARSEL_{name.upper()}"
     raw: Any = os.environ.get(env)
-    where = env
-    if raw is None:
+    from_env = raw is not None
+    if not from_env:
         raw = load_settings().get(name, entry.default)
-        where = f"{config_path()}: [parsel] {name}"
     try:
         value = float(raw)
     except (TypeError, ValueError, OverflowError):
-        raise ParselError(f"{where} must be a positive number, not {raw!r}") from None
+        value = math.nan
     if isinstance(raw, bool) or not math.isfinite(value) or value <= 0:
+        where = env if from_env else f"{config_path()}: [parsel] {name}"
         raise ParselError(f"{where} must be a positive number, not {raw!r}")
     return value
 

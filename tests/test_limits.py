@@ -33,6 +33,14 @@ def test_a_limit_comes_from_the_environment_or_parsel_toml(tmp_path, monkeypatch
     monkeypatch.setenv("PARSEL_MAX_OPS", "nan")
     with pytest.raises(ParselError, match="PARSEL_MAX_OPS must be a positive number"):
         limit("max_ops")
+    monkeypatch.delenv("PARSEL_MAX_OPS")
+    for value in ("0", "-2", "true", "'many'", "1" + "0" * 400):  # (an integer beyond any float)
+        (tmp_path / "parsel.toml").write_text(f"[parsel]\nmax_ops = {value}\n")
+        with pytest.raises(ParselError, match=r"^parsel.toml: \[parsel\] max_ops must be a positive number"):
+            limit("max_ops")
+    monkeypatch.setenv("PARSEL_CONFIG", str(tmp_path / "elsewhere.toml"))
+    with pytest.raises(ParselError, match=r"elsewhere.toml: configuration file \(PARSEL_CONFIG\) does not exist"):
+        limit("max_ops")
 
 
 def test_too_many_ops_are_refused_before_any_op_is_built(monkeypatch):

@@ -8,7 +8,12 @@ median and 95th-percentile time per request, candidates screened per second, and
 fraction of relations kept; then the cost of one slider step: evaluating the compiled
 AEP program versus re-solving placements with the ``online`` solver.
 
-Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shapeassembly]``
+With ``--baseline REV`` the random-seed requests are also solved side by side by REV's
+``plugins/parsel-aep`` and the working tree (``bench_aep_speed.py``'s alternating worker
+processes): both sides' CPU median and p95 from the same run, and whether every program
+is the same (exit status 1 if not).
+
+Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shapeassembly] [--baseline REV]``
 """
 
 from __future__ import annotations
@@ -168,6 +173,28 @@ def print_losses(outcomes: list[Outcome]) -> None:
         print(f"  crash {o.case.shape.name} {o.case.kind}: {o.crashed[:200]}")
 
 
+def side_by_side(args: argparse.Namespace, backend: str, extra: dict) -> bool:
+    """The random-seed requests solved by ``args.baseline`` and the working tree, alternating
+    in two worker processes: both sides' CPU figures from this one run, and whether every
+    program, rejection and solver count is the same."""
+    import bench_aep_speed
+
+    todo = bench_aep_speed.cases(3 * args.shapes, 0, False, args.data, shapes=args.shapes)
+    for case in todo:
+        case["options"] = {**extra, "backend": backend}
+    print(f"\nside by side with {args.baseline} ({backend}, {len(todo)} requests, alternating workers):", flush=True)
+    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None)
+    print(f"{'solver':<22}{'median s':>10}{'p95 s':>9}{'max s':>9}{'total s':>9}")
+    for name, label in (("old", args.baseline), ("new", "working tree")):
+        t = found.times[name]
+        print(f"{label[:21]:<22}{statistics.median(t):>10.3f}{bench_aep_speed.percentile(t, 0.95):>9.3f}"
+              f"{max(t):>9.3f}{sum(t):>9.1f}")
+    print(f"identical programs, rejections and counts: {found.requests - len(found.mismatches)}/{found.requests}")
+    for label, why in found.mismatches:
+        print(f"  {label}: {why}")
+    return not found.mismatches
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--shapes", type=int, default=100, help="val shapes for the random seeds")
@@ -180,6 +207,9 @@ def main() -> None:
     parser.add_argument("--verbose", action="store_true", help="print every case that loses a relation")
     parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                         help="an AEP option for every run (e.g. repair=0), repeatable")
+    parser.add_argument("--baseline", metavar="REV",
+                        help="also solve the random-seed requests with REV's plugins/parsel-aep, side by side "
+                             "with the working tree in two worker processes (bench_aep_speed.py), and compare")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
     extra = {}
@@ -247,6 +277,8 @@ def main() -> None:
             print(f"{backend:<11}{n:>9}{failed:>8}{median:>10.3f}{p95:>9.3f}{kept:>8.1%}{whole:>10.1%}")
         if len(rows) == 2:
             print(f"median CPU ratio {rows[1][0]}/{rows[0][0]}: {rows[1][3] / rows[0][3]:.2f}x")
+        if args.baseline and not side_by_side(args, backends[0], extra):
+            sys.exit(1)
     if "slider" in skip or not programs:
         return
 

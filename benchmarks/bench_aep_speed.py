@@ -34,6 +34,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,8 +51,9 @@ def _properties_module():
     return module
 
 
-def cases(random: int, designer: int, properties: bool, data: Path) -> list[dict]:
-    """``{label, spec, seed, breaks, options}`` for every request, in a fixed order."""
+def cases(random: int, designer: int, properties: bool, data: Path, shapes: int = 100) -> list[dict]:
+    """``{label, spec, seed, breaks, options}`` for every request, in a fixed order; the
+    random-seed requests are those of ``bench_aep.py --shapes SHAPES``."""
     import numpy as np
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -63,7 +65,7 @@ def cases(random: int, designer: int, properties: bool, data: Path) -> list[dict
     out: list[dict] = []
     if random:
         requests = []
-        for path in sample_programs(data, 100):
+        for path in sample_programs(data, shapes):
             shape = load_shape(str(path))
             requests += [(str(path), shape.name, seed) for seed in seeds_for(shape)]
             if len(requests) >= random:
@@ -236,15 +238,50 @@ def main() -> None:
         return
     todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
+    found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference)
+    print()
+    found.print_summary()
+    if found.mismatches:
+        sys.exit(1)
+
+
+@dataclass
+class Comparison:
+    """CPU seconds per request of each side, the requests whose results differ, work counts."""
+
+    times: dict[str, list[float]]
+    mismatches: list[tuple[str, str]]
+    work: dict[str, dict[str, int]]
+    requests: int
+    compared: bool
+
+    def print_summary(self) -> None:
+        for name, t in self.times.items():
+            print(f"{name}: {len(t)} requests, CPU median {statistics.median(t):.3f} s, "
+                  f"p95 {percentile(t, 0.95):.3f} s, max {max(t):.3f} s, total {sum(t):.1f} s")
+        for name, counts in self.work.items():
+            print(f"{name}: work " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+        if self.compared:
+            print(f"identical: {self.requests - len(self.mismatches)}/{self.requests}")
+            for label, why in self.mismatches:
+                print(f"  {label}: {why}")
+
+
+def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] | None = None,
+            save: Path | None = None, reference: Path | None = None, echo=None) -> Comparison:
+    """Solve ``todo`` (:func:`cases`) in a worker on the working tree and, with ``baseline``,
+    in one on that revision's ``plugins/parsel-aep``, alternating; ``echo`` gets a line per
+    request (printed by default)."""
+    echo = echo or (lambda line: print(line, flush=True))
     with tempfile.TemporaryDirectory() as tmp:
-        sides = [Worker("new", None, dict(item.split("=", 1) for item in args.env))]
-        if args.baseline:
-            sides.insert(0, Worker("old", baseline_tree(args.baseline, Path(tmp))))
+        sides = [Worker("new", None, env)]
+        if baseline:
+            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp))))
         times: dict[str, list[float]] = {w.name: [] for w in sides}
         mismatches = []
         work: dict[str, dict[str, int]] = {}
-        if args.save:
-            args.save.mkdir(parents=True, exist_ok=True)
+        if save:
+            save.mkdir(parents=True, exist_ok=True)
         for i, case in enumerate(todo):
             # alternate which side goes first, so neither always runs on a warmer machine
             order = sides if i % 2 == 0 else sides[::-1]
@@ -253,11 +290,11 @@ def main() -> None:
                 if name not in times:
                     continue
                 times[name].append(answer["seconds"])
-                if args.save:
-                    path = args.save / f"{case['label'].replace('/', '_')}.{name}.json"
+                if save:
+                    path = save / f"{case['label'].replace('/', '_')}.{name}.json"
                     path.write_text(json.dumps(answer["result"], indent=1, sort_keys=True))
-            if args.reference:
-                stem = args.reference / case["label"].replace("/", "_")
+            if reference:
+                stem = reference / case["label"].replace("/", "_")
                 saved = next((p for p in (Path(f"{stem}.new.json"), Path(f"{stem}.old.json")) if p.exists()), None)
                 if saved is not None:
                     answers["old"] = {"seconds": float("nan"), "result": json.loads(saved.read_text())}
@@ -278,22 +315,10 @@ def main() -> None:
                         detail = amount_difference(old["program"], new["program"])
                     same = f"DIFFERENT ({', '.join(why)}) {detail}"
                     mismatches.append((case["label"], same))
-            print(f"{i:3d} {case['label']:<52} {line}  {digest(decided(answers['new']['result']))}  {same}",
-                  flush=True)
+            echo(f"{i:3d} {case['label']:<52} {line}  {digest(decided(answers['new']['result']))}  {same}")
         for w in sides:
             w.close()
-    print()
-    for name, t in times.items():
-        print(f"{name}: {len(t)} requests, CPU median {statistics.median(t):.3f} s, p95 {percentile(t, 0.95):.3f} s, "
-              f"max {max(t):.3f} s, total {sum(t):.1f} s")
-    for name, counts in work.items():
-        print(f"{name}: work " + ", ".join(f"{k} {v}" for k, v in counts.items()))
-    if len(times) == 2 or args.reference:
-        print(f"identical: {len(todo) - len(mismatches)}/{len(todo)}")
-        for label, why in mismatches:
-            print(f"  {label}: {why}")
-        if mismatches:
-            sys.exit(1)
+    return Comparison(times, mismatches, work, len(todo), bool(baseline or reference))
 
 
 if __name__ == "__main__":

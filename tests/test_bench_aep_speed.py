@@ -1,0 +1,56 @@
+"""benchmarks/bench_aep_speed.py: the side-by-side runner finds a changed program.
+
+It solves requests in worker processes (the working tree's and a revision's
+``plugins/parsel-aep``), saves each result, and compares them with the other side's or
+a saved run's byte for byte; ``bench_aep.py --baseline`` reports through it.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import bench_aep_speed  # noqa: E402
+
+SEED = "scale_1d('top', origin=(0, 0.725, 0), dir=(1, 0, 0), amount=x)"
+
+
+def requests() -> list[dict]:
+    return [{"label": f"tiny-{i}", "spec": "tiny_table", "seed": seed, "breaks": [],
+             "options": {"backend": "symengine"}}
+            for i, seed in enumerate([SEED, SEED.replace("amount=x", "amount=0.5 * x")])]
+
+
+def test_a_saved_run_compares_equal_and_a_changed_program_is_found(tmp_path):
+    lines: list[str] = []
+    first = bench_aep_speed.compare(requests(), save=tmp_path, echo=lines.append)
+    assert not first.compared and len(first.times["new"]) == 2 and len(lines) == 2
+    saved = sorted(tmp_path.glob("*.new.json"))
+    assert len(saved) == 2 and all("program" in json.loads(p.read_text()) for p in saved)
+
+    again = bench_aep_speed.compare(requests(), reference=tmp_path, echo=lines.append)
+    assert again.compared and again.mismatches == [] and again.requests == 2
+
+    result = json.loads(saved[1].read_text())
+    program = json.loads(result["program"])
+    program["ops"][0]["amount"] = "0.25*x"
+    result["program"] = json.dumps(program, indent=2)
+    saved[1].write_text(json.dumps(result))
+    changed = bench_aep_speed.compare(requests(), reference=tmp_path, echo=lines.append)
+    assert [label for label, _ in changed.mismatches] == ["tiny-1"]
+    assert "DIFFERENT (program)" in changed.mismatches[0][1]
+
+
+def test_a_baseline_revision_solves_beside_the_working_tree():
+    if subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True).returncode:
+        pytest.skip("not a git checkout")
+    found = bench_aep_speed.compare(requests()[:1], baseline="HEAD", echo=lambda line: None)
+    assert set(found.times) == {"old", "new"} and found.compared
+    assert all(t > 0 for side in found.times.values() for t in side)

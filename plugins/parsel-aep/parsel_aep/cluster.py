@@ -109,13 +109,16 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
                  corners: Mapping[str, np.ndarray], constraints: Sequence[Relation],
                  tolerance: float, frame: str = "local", shears: bool = False,
                  translate_only: frozenset[str] = frozenset(),
-                 members: Mapping[str, tuple[str, ...]] | None = None) -> ClusterSystem:
+                 members: Mapping[str, tuple[str, ...]] | None = None, memo: dict | None = None) -> ClusterSystem:
     """Residual slopes of every part's box basis against ``constraints``.
 
     ``corners``: (S, 8, 3) corners of every part at the samples with the cluster's parts
     at rest; ``rest``: (8, 3) rest corners; ``translate_only``: parts hinted to translate
     (their other basis amounts are left out); ``members``: for a repeated group edited
     through its virtual parent, the parts its ops move (each the same point map).
+    ``memo`` (a dict kept by the caller for one shape at rest) remembers each basis's
+    moved corners and its slopes on each constraint: they depend only on the rest shape,
+    and the joint pass builds the same parts' systems for every variant and ring.
     """
     def residuals(view, which=None) -> np.ndarray:
         blocks = [np.asarray(r.residual(view), dtype=float) for r in (constraints if which is None else which)]
@@ -129,22 +132,36 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     slices = residual_slices(constraints, rest)
     compounds, blocks, slopes, weights, costs = [], [], [], [], []
     column = 0
+    memo = {} if memo is None else memo
     for part in parts:
         compound = box_compound(part, hexahedra[part], frame, shears)
         targets = (members or {}).get(part, (part,))
-        batch = _Batch(compound.basis)
-        moved = {m: batch.apply(rest[m], 1.0) for m in targets}                          # (Kp, 8, 3)
+        key = (id(compound), targets)  # (each entry holds its compound and constraint: the ids stay theirs)
+        known = memo.get(key)
+        if known is None:
+            batch = _Batch(compound.basis)
+            moved = {m: batch.apply(rest[m], 1.0) for m in targets}                      # (Kp, 8, 3)
+            moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets)
+                            / (8.0 * len(targets)))
+            known = memo[key] = (compound, moved, moves)
+        _, moved, moves = known
         # Only the constraints on the moved parts change: the others' rows are base - base
         # (a part that none of the constraints reads gets zero slopes, not a missing block).
         slope = np.empty((compound.size, len(base)))
         slope[:] = base - base
         reading = [i for i, r in enumerate(constraints) if set(r.members) & set(targets)]
-        if reading:
-            columns = np.concatenate([np.arange(slices[i].start, slices[i].stop) for i in reading])
-            changed = residuals({**still, **moved}, [constraints[i] for i in reading])
-            slope[:, columns] = np.broadcast_to(changed - base[columns], (compound.size, len(columns)))
+        fresh = [i for i in reading if (*key, id(constraints[i])) not in memo]
+        if fresh:
+            changed = residuals({**still, **moved}, [constraints[i] for i in fresh])
+            start = 0
+            for i in fresh:
+                width = slices[i].stop - slices[i].start
+                memo[(*key, id(constraints[i]))] = (compound, constraints[i], np.broadcast_to(
+                    changed[..., start:start + width] - base[slices[i]], (compound.size, width)))
+                start += width
+        for i in reading:
+            slope[:, slices[i]] = memo[(*key, id(constraints[i]))][2]
         slopes.append(slope)
-        moves = np.sqrt(sum(((moved[m] - rest[m]) ** 2).sum(axis=(-1, -2)) for m in targets) / (8.0 * len(targets)))
         if part in translate_only:  # a part hinted to translate keeps its shape
             moves = np.where([op.name == "translate" for op in compound.basis], moves, 0.0)
         weights.append(moves)
@@ -244,6 +261,8 @@ class _Numerics:
         self.seen: set = set()
         #: Solves whose matrix was proved to have full column rank (:func:`_conditioned_lstsq`).
         self.conditioned: set = set()
+        #: The latest singular values found by a solve on each prior (:meth:`deficient`).
+        self.spectra: dict[bytes, list[tuple[np.ndarray, np.ndarray | None, float, float]]] = {}
         self.gathers: dict = {}
         self.exact = _Numerics(system, fast=False) if fast else self
 
@@ -267,16 +286,68 @@ class _Numerics:
                 slopes, r0 = self.gathered(columns, live)
                 a, b = _weighted(slopes * p[live], r0, rows)                             # (K', B'), (K', S)
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+            direct = compressed is None
             with one_blas_thread():
-                y = _conditioned_lstsq(a / norm, b)
+                y = None if direct and self.deficient(columns, rows, p, a) else _conditioned_lstsq(a / norm, b)
                 if y is None:
-                    y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+                    spectrum: list[np.ndarray] = []
+                    try:
+                        y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
+                    finally:
+                        if direct and spectrum:
+                            self.remember(columns, rows, p, spectrum[0] * norm)
                 else:
                     self.conditioned.add(key)
             out = np.zeros((len(p), b.shape[1]))
             out[live] = p[live, None] * y / norm
             out = self.solved[key] = -out.T
         return out
+
+    def deficient(self, columns: np.ndarray, rows: np.ndarray | None, p: np.ndarray, a: np.ndarray) -> bool:
+        """Whether ``a`` (the weighted system on ``columns``) is proved too ill-conditioned
+        for :func:`_conditioned_lstsq`, whose proof would fail: from an earlier solve on the
+        same prior and a superset of the columns (the reweighted solves, the drop steps).
+
+        ``a`` is that system's rows, each reweighted: ``a = D S A``, so its smallest singular
+        value is at most ``max(D)`` times ``A``'s (removing rows cannot raise it), and its
+        largest at least ``|a|_F / sqrt(n)``. When that bounds ``s_min / s_max`` by 1e-6,
+        ``a^T a - d I`` with ``d >= (1e-5 s_max)^2`` has an eigenvalue near ``-d``, far
+        beyond rounding, and its Cholesky factorisation fails: the solve goes straight to
+        the SVD, as it would have after the failed proof.
+        """
+        m, n = a.shape
+        if m < n or n == 0:
+            return False
+        frobenius = float(np.sqrt(np.einsum("ij,ij->", a, a)))
+        for mask, old_rows, s_min, s_max in reversed(self.spectra.get(p.tobytes(), ())):
+            if not mask[columns].all():
+                continue
+            if rows is None and old_rows is None:
+                growth = 1.0
+            else:
+                new = np.ones(len(columns)) if rows is None else rows
+                old = np.ones(len(columns)) if old_rows is None else old_rows[columns]
+                if not np.all(old > 0):
+                    continue
+                growth = float((new / old).max())
+            # (the SVD's singular values are exact for a matrix within ~n u s_max of A)
+            if growth * (s_min + 1e-12 * s_max) * np.sqrt(n) <= 1e-6 * frobenius:
+                return True
+        return False
+
+    def remember(self, columns: np.ndarray, rows: np.ndarray | None, p: np.ndarray, s: np.ndarray) -> None:
+        """Keep the singular values ``s`` of the weighted system on ``columns`` (the last two per prior)."""
+        if not 0 < np.count_nonzero(p) <= len(s):  # (fewer rows than amounts: nothing to bound)
+            return
+        mask = np.zeros(self.system.slopes.shape[1], dtype=bool)
+        mask[columns] = True
+        full = None
+        if rows is not None:
+            full = np.zeros(len(mask))
+            full[columns] = rows
+        kept = self.spectra.setdefault(p.tobytes(), [])
+        kept.append((mask, full, float(s.min()), float(s.max())))
+        del kept[:-2]
 
     def gathered(self, columns: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The slopes (K', B') of the ``live`` amounts on ``columns`` and the residuals there
@@ -357,13 +428,17 @@ def _weighted(a: np.ndarray, b: np.ndarray, rows: np.ndarray | None) -> tuple[np
     return a * rows[:, None], rows[:, None] * b
 
 
-def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float) -> np.ndarray:
+def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float,
+                   spectrum: list | None = None) -> np.ndarray:
     """``np.linalg.pinv(a, rcond) @ b`` by ``np.linalg.lstsq`` (singular values up to
     ``rcond`` times the largest count as zero in both), refused (:class:`_Borderline`) when
-    a singular value is within ``margin`` (relative) of that cutoff."""
+    a singular value is within ``margin`` (relative) of that cutoff; the singular values
+    are appended to ``spectrum``."""
     if a.size == 0:
         return np.zeros((a.shape[1], b.shape[1]))
     y, _, _, s = np.linalg.lstsq(a, b, rcond=rcond)
+    if spectrum is not None:
+        spectrum.append(s)
     cutoff = rcond * s.max(initial=0.0)
     if not cutoff > 0:  # a zero matrix (or not finite: refused)
         if np.all(s == 0):

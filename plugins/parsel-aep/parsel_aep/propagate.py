@@ -252,6 +252,8 @@ class Propagation:
         self._part_corners: dict[tuple, tuple[tuple[EditOp, ...], np.ndarray]] = {}
         self._errors: dict[tuple, float] = {}
         self._digests: dict[int, tuple[np.ndarray, bytes]] = {}
+        #: The joint pass's box bases moved at rest and their slopes (cluster.build_system).
+        self._bases: dict = {}
 
     # -- program bookkeeping -------------------------------------------------------
 
@@ -599,7 +601,7 @@ class Propagation:
         system = cluster_module.build_system(parts, hexahedra, self.rest, corners, constraints, self.tolerance,
                                              frame, shears,
                                              frozenset(p for p in parts if self.hints.get(p) == "translate"),
-                                             targets)
+                                             targets, memo=self._bases)
         try:
             plan = cluster_module.plan(system)
             kept = set(plan.kept)

@@ -840,3 +840,62 @@ def test_aep_solves_with_fewer_garbage_collections(monkeypatch):
         assert gc.get_threshold()[0] == 700
     finally:
         gc.set_threshold(*previous)
+
+
+def test_joint_slopes_remembered_across_variants_and_rings_are_the_fresh_ones():
+    """One memo for every system of a shape (variants, rings of more parts and more
+    constraints, a group's members): each system's arrays are those built without it."""
+    from parsel_core.loading import load_shape
+
+    shape = load_shape("shelf")
+    rest = shape.rest_corners()
+    corners = {m: np.broadcast_to(c, (3, 8, 3)) for m, c in rest.items()}
+    hexahedra = {p: shape.part(p).hexahedron for p in shape.parts}
+    group = next(g for g, r in shape.relations.items() if r.kind == "translation")
+    hexahedra[group] = shape.part(group).hexahedron
+    members = {group: tuple(shape.relations[group].members)}
+    single = sorted(p for p in shape.parts if p not in members[group])
+    memo: dict = {}
+    rings = [single[:1], single[:2], single[:2] + [group], single]
+    for parts in rings:
+        moved = {m for p in parts for m in members.get(p, (p,))}
+        constraints = [r for r in shape.relations.values() if set(r.members) & moved and r.id != group]
+        for frame, shears in [("local", False), ("local", True), ("world", True)]:
+            args = (parts, hexahedra, rest, corners, constraints, 1e-4, frame, shears, frozenset(), members)
+            fresh, kept = cluster.build_system(*args), cluster.build_system(*args, memo=memo)
+            for name in ("slopes", "weights", "r0", "costs"):
+                assert getattr(kept, name).tobytes() == getattr(fresh, name).tobytes(), name
+    assert len(memo) > 3 * len(rings)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_solve_proved_deficient_from_an_earlier_spectrum_would_fail_the_conditioning_proof(seed):
+    """The fast solves skip the Cholesky proof of a system whose smallest singular value an
+    earlier solve bounds (same prior, rows removed and reweighted): only where the proof
+    fails; and a well-conditioned system is never skipped."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(seed)
+    k, n = 240, 40
+    a = rng.normal(size=(k, n)) * (rng.random((k, n)) < 0.2)
+    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    s[-1] *= [0.0, 1e-14, 1e-9, 1e-6, 1e-3, 1.0][seed]  # from exactly deficient to well conditioned
+    a = (u * s) @ vt
+    numerics = cluster._Numerics(SimpleNamespace(slopes=np.zeros((n, k))), fast=True)
+    prior = np.ones(n)
+    rows = rng.uniform(0.5, 2.0, k)
+    numerics.remember(np.arange(k), rows, prior, np.linalg.svd(a * rows[:, None], compute_uv=False))
+    skipped = 0
+    for trial in range(20):
+        columns = np.sort(rng.choice(k, size=int(rng.integers(n + 5, k + 1)), replace=False))
+        new_rows = rng.uniform(0.5, 2.0, len(columns)) * (1.0 if trial % 2 else rng.uniform(1, 1e3))
+        weighted = a[columns] * new_rows[:, None]
+        if numerics.deficient(columns, new_rows, prior, weighted):
+            skipped += 1
+            norm = np.abs(weighted).max()
+            assert cluster._conditioned_lstsq(weighted / norm, np.ones((len(columns), 2))) is None
+    if seed <= 2:  # (deficient to the last bits or far below the proof's 1e-5: proved)
+        assert numerics.deficient(np.arange(k), rows, prior, a * rows[:, None]) and skipped > 0
+    if seed >= 4:  # (within a few decades of the proof's bound: never skipped)
+        assert skipped == 0 and not numerics.deficient(np.arange(k), rows, prior, a * rows[:, None])
+    assert not numerics.deficient(np.arange(k), rows, 2 * prior, a * rows[:, None])  # (another prior)

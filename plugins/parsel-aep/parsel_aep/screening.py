@@ -94,21 +94,22 @@ def apply_each(ops: Sequence[EditOp], rest: np.ndarray, amounts: Sequence[float]
 
 
 class _Batch:
-    """Ops applied together: those of one class on one feature at once (:func:`_apply_batch`,
-    their vector fields gathered once for every amount and part), any other op (an
-    :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``."""
+    """Ops applied together: those of one class at once, whatever feature each moves
+    (:func:`_apply_batch`, their vector fields gathered once for every amount and part),
+    any other op (an :class:`~parsel_aep.propagate.AnchorScale`) by its own ``apply``."""
 
     def __init__(self, ops: Sequence[EditOp]) -> None:
         self.ops = list(ops)
-        groups: dict[tuple, list[int]] = {}
+        groups: dict[type, list[int]] = {}
         self.single: list[int] = []
         for i, op in enumerate(self.ops):
             if type(op) in _BATCHED:
-                groups.setdefault((type(op), op.feature), []).append(i)
+                groups.setdefault(type(op), []).append(i)
             else:
                 self.single.append(i)
-        self.groups = [(kind, feature, index, _fields(kind, [self.ops[i] for i in index]))
-                       for (kind, feature), index in groups.items()]
+        self.groups = [(kind, index, _fields(kind, [self.ops[i] for i in index]),
+                        _moved_corners([self.ops[i].feature for i in index]))
+                       for kind, index in groups.items()]
 
     def apply(self, rest: np.ndarray, amount: float | np.ndarray) -> np.ndarray:
         """Every op at ``amount``, or each at its own (``amount`` of shape (N,))."""
@@ -116,10 +117,25 @@ class _Batch:
         out = np.empty((len(self.ops), 8, 3))
         for i in self.single:
             out[i] = self.ops[i].apply(rest, float(amount[i]) if each else amount, NUMPY_MATH)
-        for kind, feature, index, fields in self.groups:
-            out[index] = _apply_batch(kind, feature, fields, rest,
+        for kind, index, fields, moves in self.groups:
+            out[index] = _apply_batch(kind, moves, fields, rest,
                                       np.asarray(amount)[index][:, None, None] if each else amount)
         return out
+
+
+def _moved_corners(features: Sequence[str | None]) -> np.ndarray | None:
+    """Which corners each op moves, (G, 8, 1): all for ops on the whole part (``None`` when
+    every op is), its feature's corners for the others."""
+    if all(feature is None for feature in features):
+        return None
+    return np.array([_corner_flags(feature) for feature in features], dtype=bool)[:, :, None]
+
+
+@cache
+def _corner_flags(feature: str | None) -> tuple[bool, ...]:
+    """Whether an op on ``feature`` (``None``: the whole part) moves each corner."""
+    moved = range(8) if feature is None else _corner_indices(feature)
+    return tuple(k in moved for k in range(8))
 
 
 #: The vector fields each batched class reads, in :func:`_apply_batch`'s order.
@@ -148,14 +164,15 @@ def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.concatenate([b * z - c * y, c * x - a * z, a * y - b * x], axis=-1)
 
 
-def _apply_batch(kind: type, feature: str | None, fields: tuple[np.ndarray, ...], rest: np.ndarray,
+def _apply_batch(kind: type, moves: np.ndarray | None, fields: tuple[np.ndarray, ...], rest: np.ndarray,
                  amount: float) -> np.ndarray:
-    """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class
-    on one feature, given their vector fields (:func:`_fields`, each (G, 1, 3)), with the
-    operations of each op's ``transform`` in the same order, so the result is the same to
-    the last bit."""
-    index = None if feature is None else list(_corner_indices(feature))
-    points = rest if index is None else rest[index]
+    """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class,
+    given their vector fields (:func:`_fields`, each (G, 1, 3)) and the corners each moves
+    (:func:`_moved_corners`), with the operations of each op's ``transform`` in the same
+    order, so the result is the same to the last bit: every corner is transformed (element
+    by element, as an op on a feature transforms its own corners) and an op on a feature
+    keeps the rest of its corners where they are."""
+    points = rest
     if kind is Translate:
         (d,) = fields
         moved = points + d * amount
@@ -181,11 +198,9 @@ def _apply_batch(kind: type, feature: str | None, fields: tuple[np.ndarray, ...]
         o, n, d = fields
         centred = points - o
         moved = o + centred + _dot(centred, n) * d * amount
-    if index is None:
+    if moves is None:
         return moved
-    out = np.array(np.broadcast_to(rest, (len(fields[0]), 8, 3)))
-    out[:, index, :] = moved
-    return out
+    return np.where(moves, moved, rest)
 
 
 _BATCHED = frozenset({Translate, Rotate, Scale1D, Scale2D, Scale3D, Shear})

@@ -63,6 +63,7 @@ from parsel_aep.screening import (
 from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_counts
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
+from parsel_core import opmath
 from parsel_core.blas import one_blas_thread
 from parsel_core.collector import fewer_collections
 from parsel_core.errors import ParselError, UnknownPartError
@@ -254,6 +255,10 @@ class Propagation:
         self._digests: dict[int, tuple[np.ndarray, bytes]] = {}
         #: The joint pass's box bases moved at rest and their slopes (cluster.build_system).
         self._bases: dict = {}
+        #: Each part's symbolic corners by the ops that move it, and each op's amount as an
+        #: expression (:meth:`symbolic_parts`).
+        self._symbolic: dict[tuple, tuple[tuple[EditOp, ...], np.ndarray]] = {}
+        self._expressions: dict[int, tuple[EditOp, Any]] = {}
 
     # -- program bookkeeping -------------------------------------------------------
 
@@ -311,6 +316,44 @@ class Propagation:
                 known = self._part_corners[key] = (tuple(ops), corners)
             out[pid] = known[1]
         return out
+
+    def symbolic_parts(self, ops: Sequence[EditOp], only: Sequence[str]) -> dict[str, np.ndarray]:
+        """``symbolic_corners(self.program(ops), ..., only=only)``, part by part for a program
+        of part ops in one layer (as :meth:`parts_of`): a part's expressions are its rest
+        corners under the ops that move it, so a part whose ops are the same objects as
+        before keeps its expressions (the searches derive against the same decided
+        neighbours again and again). Other programs are derived whole."""
+        program = self.program(ops)
+        if not (all(op.acts_on == "part" for op in ops) and len(program.layer_slices) == 1):
+            return symbolic_corners(program, self.shape, self.backend, only=only)
+        program.validate(self.shape)
+        moving: dict[str, list[EditOp]] = {pid: [] for pid in only if pid in self.rest}
+        for op in ops:
+            for target in op_targets(op, self.shape):
+                if target in moving:
+                    moving[target].append(op)
+        out = {}
+        for pid, part_ops in moving.items():
+            if not part_ops:  # (a part no op moves keeps its float corners)
+                out[pid] = self.rest[pid]
+                continue
+            key = (pid, tuple(map(id, part_ops)))
+            known = self._symbolic.get(key)
+            if known is None:
+                corners = self.backend.corners(self.rest[pid])
+                for op in part_ops:
+                    corners = op.apply(corners, self.expression(op), opmath)
+                corners.flags.writeable = False
+                known = self._symbolic[key] = (tuple(part_ops), corners)
+            out[pid] = known[1]
+        return out
+
+    def expression(self, op: EditOp) -> Any:
+        """``op``'s amount parsed by the backend, once per op (the entry holds the op)."""
+        known = self._expressions.get(id(op))
+        if known is None or known[0] is not op:
+            known = self._expressions[id(op)] = (op, self.backend.parse(op.amount))
+        return known[1]
 
     def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
         """:func:`relation_error`, remembered by what it reads: the members' corners (by a
@@ -626,7 +669,7 @@ class Propagation:
         clock = time.perf_counter()
         kept_constraints = [found.constraints[i] for i in found.kept]
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
-        symbolic = symbolic_corners(self.program(found.others_ops), self.shape, self.backend, only=outside)
+        symbolic = self.symbolic_parts(found.others_ops, outside)
         residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
         amounts = self.cluster_amounts(found, residual)
         if amounts is None:
@@ -1126,7 +1169,7 @@ class Propagation:
         """The symbolic residual of the kept constraints, and its columns in the screened rows."""
         kept = [r for r in constraints if r.id not in broken]
         others = sorted({m for r in kept for m in r.members if m not in rest})
-        symbolic = symbolic_corners(self.program(state.ops), self.shape, self.backend, only=others)
+        symbolic = self.symbolic_parts(state.ops, others)
         residual = symbolic_residual(kept, {**symbolic, **rest})
         columns = np.concatenate([np.arange(s.start, s.stop) for s, r in zip(residual_slices(constraints, self.rest),
                                                                             constraints) if r.id not in broken])

@@ -759,6 +759,63 @@ def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
     assert seen["parts reused"] > seen["parts"] / 2  # (programs part by part, mostly reused)
 
 
+def test_remembered_symbolic_corners_are_those_derived_afresh(monkeypatch):
+    """The derivations read decided parts' symbolic corners, remembered part by part by the
+    ops moving them: every answer must print as the whole program's symbolic corners."""
+    from parsel_aep.propagate import Propagation
+    from parsel_core.program import symbolic_corners
+
+    symbolic_of = Propagation.symbolic_parts
+    seen = {"parts": 0, "reused": 0, "whole": 0}
+
+    def symbolic(self, ops, only):
+        before = len(self._symbolic)
+        got = symbolic_of(self, ops, only)
+        fresh = symbolic_corners(self.program(ops), self.shape, self.backend, only=only)
+        assert got.keys() == fresh.keys()
+        for pid in got:
+            assert np.asarray(got[pid]).dtype == np.asarray(fresh[pid]).dtype
+            assert [str(e) for e in np.ravel(got[pid])] == [str(e) for e in np.ravel(fresh[pid])], pid
+        moved = [pid for pid in got if np.asarray(got[pid]).dtype == object]
+        seen["parts"] += len(moved)
+        seen["reused"] += len(moved) - (len(self._symbolic) - before)
+        seen["whole"] += any(op.acts_on != "part" for op in ops)
+        return got
+
+    monkeypatch.setattr(Propagation, "symbolic_parts", symbolic)
+    solve_fixtures()
+    assert seen["parts"] > 20 and seen["reused"] > seen["parts"] / 3
+
+
+def test_symbolic_corners_of_a_part_follow_its_ops():
+    """Remembered by the ops moving each part: another op on a part (the same count), an op
+    on its group and a program with a group layout each give the whole program's corners."""
+    from parsel_aep.propagate import Propagation
+    from parsel_core import Program
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+    from parsel_core.ops import ChangeCount
+    from parsel_core.program import symbolic_corners
+
+    shape = load_shape("shelf")
+    group = next(g for g, r in shape.relations.items() if r.kind == "translation")
+    board, other = shape.relations[group].members[0], next(p for p in sorted(shape.parts)
+                                                         if p not in shape.relations[group].members)
+    run = Propagation(SolveRequest(shape, Program.from_text(f"translate({other!r}, dir=(0, 1, 0), amount=x)")))
+    run.params = run.parameter
+    first = [Translate(other, "0.5*x", dir=(0, 1, 0)), Scale1D(board, "x", origin=(0, 0, 0), dir=(1, 0, 0))]
+    programs = [first, [first[0], Scale1D(board, "2*x", origin=(0, 0, 0), dir=(1, 0, 0))],
+                [first[0], Translate(group, "x", dir=(1, 0, 0))],
+                [first[0], Scale1D(group, "x", origin=(0, 0, 0), dir=(0, 1, 0)), ChangeCount(group, "x")], first]
+    only = [board, other, group]
+    for ops in programs:
+        got = run.symbolic_parts(ops, only)
+        fresh = symbolic_corners(run.program(ops), shape, run.backend, only=only)
+        assert got.keys() == fresh.keys()
+        assert all([str(e) for e in np.ravel(got[p])] == [str(e) for e in np.ravel(fresh[p])] for p in got)
+    assert run.symbolic_parts(first, only)[board] is got[board]  # (the first program's, remembered)
+
+
 class Variant:
     """A stand-in for a solved joint-pass cluster: a score, and sparse amounts that may fail."""
 

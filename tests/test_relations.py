@@ -262,3 +262,29 @@ def test_batched_relation_errors_are_each_rows_own(kind):
         assert np.allclose(batch, one, rtol=1e-12, atol=1e-15)
         assert np.isfinite(batch[0])
     assert np.ptp(one) > 0.1  # some moves keep the contact, others break it badly
+
+
+@pytest.mark.parametrize("kind", ["face", "point"])
+def test_an_error_compared_with_a_bound_skips_only_what_cannot_change_the_answer(kind):
+    """``relation_error(..., below=b)`` is the full error, or (a face contact whose exact
+    error is under ``b``, none of its members laid out) that exact error: on the same side
+    of ``b`` as the full one, for slides, pulls, stretches and removed instances."""
+    from parsel_core.report import relation_error
+
+    shape = _board_on_panel(kind)
+    relation = shape.relation("contact")
+    rest = shape.rest_corners()
+    moved = _rows_of_moves(rest["board"], np.random.default_rng(8), count=40)
+    moved[3, 2] = np.nan
+    panel = np.broadcast_to(rest["panel"], (5, 8, 3))
+    skipped = 0
+    for m in moved:
+        corners = {"board": m, "panel": panel}
+        for sliding in ((), ("board",)):
+            full = relation_error(relation, corners, sliding)
+            for bound in (1e-6, 0.05, 0.3, np.inf):
+                quick = relation_error(relation, corners, sliding, below=bound)
+                assert (quick < bound) == (full < bound)
+                assert quick == full or (quick < bound and kind == "face" and not sliding)
+                skipped += quick != full
+    assert (skipped > 0) == (kind == "face")

@@ -358,13 +358,16 @@ class Propagation:
     def error(self, relation: Relation, corners: Mapping[str, np.ndarray], sliding=()) -> float:
         """:func:`relation_error`, remembered by what it reads: the members' corners (by a
         128-bit digest) and which of them slide. Between two checks of the whole shape only
-        the relations of the parts edited since are evaluated again."""
+        the relations of the parts edited since are evaluated again. Errors are compared
+        with the relations' allowances, and broken ones summed: a face contact within its
+        allowance is not checked again as a sliding one (``below``)."""
         key = (relation.id, *((m in sliding, self.digest(np.asarray(corners[m]))) for m in relation.members))
         error = self._errors.get(key)
         if error is None:
             if len(self._errors) >= _REMEMBERED_ERRORS:
                 self._errors.clear()
-            error = self._errors[key] = relation_error(relation, corners, sliding)
+            error = self._errors[key] = relation_error(relation, corners, sliding,
+                                                        below=relation.allowance(self.tolerance))
         return error
 
     def digest(self, array: np.ndarray) -> bytes:

@@ -746,7 +746,10 @@ def test_remembered_corners_and_errors_are_those_evaluated_afresh(monkeypatch):
     def error(self, relation, corners, sliding=()):
         before = len(self._errors)
         got = error_of(self, relation, corners, sliding)
-        assert got == propagate_module.relation_error(relation, corners, sliding)
+        allowance = relation.allowance(self.tolerance)
+        full = propagate_module.relation_error(relation, corners, sliding)
+        assert got == propagate_module.relation_error(relation, corners, sliding, below=allowance)
+        assert (got < allowance) == (full < allowance) and (got == full or got < allowance)
         seen["errors"] += 1
         seen["errors remembered"] += len(self._errors) == before
         return got

@@ -155,7 +155,10 @@ class _Cluster:
     plan: cluster_module.Plan
     others_ops: list[EditOp]
     constraints: list[Relation]
-    score: tuple = ()
+    #: The constraints given up (indices), and the variant (shears, world frame).
+    dropped: tuple[int, ...] = ()
+    shears: bool = False
+    world: bool = False
 
     @property
     def system(self) -> cluster_module.ClusterSystem:
@@ -170,6 +173,37 @@ class _Cluster:
         """The sparse amounts (S, B) and their solver (B, K'), solved when first read."""
         f, matrix, _ = self.plan.solve()
         return f, matrix
+
+    @functools.cached_property
+    def score(self) -> tuple:
+        """``(constraints dropped, their error, shears, world frame)``, least first. The error
+        is measured on the sparse amounts (solved here when first read, raising as they
+        do); a cluster keeping every constraint scores 0 whatever its amounts."""
+        if not self.dropped:
+            return (0, 0.0, self.shears, self.world)
+        errors = cluster_module.relation_errors(self.system, self.solution[0])
+        return (len(self.dropped), float(sum(errors[i] for i in self.dropped)), self.shears, self.world)
+
+
+def _least_scored(state: _State, solved: list[tuple[int, _Cluster]]) -> tuple[tuple, int, _Cluster] | None:
+    """``(score, index, cluster)`` of the least of the ``solved`` (by score, then index),
+    scoring only the clusters that drop the fewest constraints; those whose sparse
+    amounts cannot be solved are removed from ``solved`` on the way."""
+    while solved:
+        fewest = min(len(found.dropped) for _, found in solved)
+        scored = []
+        clock = time.perf_counter()
+        try:
+            for index, found in [t for t in solved if len(t[1].dropped) == fewest]:
+                try:
+                    scored.append((found.score, index, found))
+                except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
+                    solved[:] = [t for t in solved if t[1] is not found]
+        finally:
+            state.stats["time_s"]["screen"] += time.perf_counter() - clock
+        if scored:
+            return min(scored, key=lambda t: (t[0], t[1]))
+    return None
 
 
 def _digest(array: np.ndarray) -> bytes:
@@ -597,16 +631,20 @@ class Propagation:
         A score is ``(dropped, their error, shears, world frame)``, so an unsolved variant
         scores at least ``(0, 0.0, shears, world frame)``: a solved one that beats every
         unsolved variant's bound comes next whatever they give, and the joint pass, which
-        stops at the first cluster keeping everything, mostly solves few variants. A
-        cluster whose sparse amounts cannot be solved is left out, as an unsolvable
-        variant is.
+        stops at the first cluster keeping everything, mostly solves few variants. The
+        error of the dropped constraints needs the sparse amounts; it is measured only for
+        the clusters that drop the fewest (only those can come next). A cluster whose
+        sparse amounts cannot be solved is left out, as an unsolvable variant is.
         """
         pending = [((0, 0.0, shears, frame != "local"), i) for i, (_, frame, shears) in enumerate(variants)]
-        solved: list[tuple[tuple, int, _Cluster]] = []
+        solved: list[tuple[int, _Cluster]] = []
         while pending or solved:
-            best = min(solved, key=lambda t: (t[0], t[1]), default=None)
+            fewest = min((len(found.dropped) for _, found in solved), default=None)
+            best = None if pending and fewest != 0 else _least_scored(state, solved)
+            if best is None and not pending:
+                return
             if best is not None and (not pending or (best[0], best[1]) < min(pending)):
-                solved.remove(best)
+                solved[:] = [t for t in solved if t[1] is not best[2]]
                 clock = time.perf_counter()
                 try:
                     _ = best[2].solution  # (its sparse amounts, if its score did not need them)
@@ -621,7 +659,7 @@ class Propagation:
             parts, frame, shears = variants[bound[1]]
             found = self.cluster_solve(state, parts, frame, shears)
             if found is not None:
-                solved.append((found.score, bound[1], found))
+                solved.append((bound[1], found))
 
     def unit_members(self, unit: str) -> tuple[str, ...]:
         """The parts an op on ``unit`` moves: the part itself, or a group's members."""
@@ -654,18 +692,13 @@ class Propagation:
             dropped = [i for i in range(len(constraints)) if i not in kept]
             if dropped and not self.options.breaking:
                 return None  # giving up relations is a breaking-edit
-            found = _Cluster(parts, members, plan, others_ops, constraints)
-            # Dropped constraints are scored on the sparse amounts; a cluster keeping every
-            # constraint scores 0 whatever its amounts, so those are solved when it comes up
-            # (best_clusters).
-            f = found.solution[0] if dropped else None
         except (np.linalg.LinAlgError, FloatingPointError):  # an ill-posed cluster is not taken
             return None
         finally:
             state.stats["time_s"]["screen"] += time.perf_counter() - clock
-        errors = cluster_module.relation_errors(system, f) if dropped else np.zeros(0)
-        found.score = (len(dropped), float(sum(errors[i] for i in dropped)), shears, frame != "local")
-        return found
+        # (its score, and the sparse amounts it needs when constraints are dropped, are
+        # worked out when it may come next: best_clusters)
+        return _Cluster(parts, members, plan, others_ops, constraints, tuple(dropped), shears, frame != "local")
 
     def cluster_ops(self, state: _State, found: _Cluster) -> list[EditOp] | None:
         """The program with the cluster's edits replaced by its joint edit, amounts in closed form."""

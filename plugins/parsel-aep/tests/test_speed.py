@@ -820,16 +820,26 @@ def test_symbolic_corners_of_a_part_follow_its_ops():
 
 
 class Variant:
-    """A stand-in for a solved joint-pass cluster: a score, and sparse amounts that may fail."""
+    """A stand-in for a solved joint-pass cluster: a score, and sparse amounts that may fail
+    (its score then fails too when it drops constraints, as the error needs them)."""
 
     def __init__(self, score, fails=False):
-        self.score, self.fails = score, fails
+        self._score, self.fails = score, fails
+        self.dropped = tuple(range(score[0]))
+        self.reads = 0
 
     @property
     def solution(self):
         if self.fails:
             raise np.linalg.LinAlgError("SVD did not converge")
         return None
+
+    @property
+    def score(self):
+        self.reads += 1
+        if self.dropped:
+            _ = self.solution
+        return self._score
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -959,3 +969,24 @@ def test_a_solve_proved_deficient_from_an_earlier_spectrum_would_fail_the_condit
     if seed >= 4:  # (within a few decades of the proof's bound: never skipped)
         assert skipped == 0 and not numerics.deficient(np.arange(k), rows, prior, a * rows[:, None])
     assert not numerics.deficient(np.arange(k), rows, 2 * prior, a * rows[:, None])  # (another prior)
+
+
+def test_only_the_clusters_dropping_the_fewest_constraints_are_scored():
+    """The error of the dropped constraints needs the sparse amounts: clusters dropping more
+    than the next one are not scored (nor their amounts solved) until they may come next."""
+    from parsel_aep.propagate import Propagation
+
+    variants = [([f"p{i}"], "local", False) for i in range(5)]
+    made = {"p0": Variant((2, 0.5, False, False)), "p1": Variant((3, 0.1, False, False)),
+            "p2": Variant((2, 0.2, False, False)), "p3": Variant((1, 0.9, False, False), fails=True),
+            "p4": Variant((4, 0.0, False, False))}
+
+    class Stub:
+        def cluster_solve(self, state, parts, frame, shears):
+            return made[parts[0]]
+
+    state = type("State", (), {"stats": {"time_s": {"screen": 0.0}}})()
+    ranked = Propagation.best_clusters(Stub(), state, variants)
+    assert next(ranked) is made["p2"]  # (p3, dropping one, cannot be solved: left out)
+    assert [made[p].reads > 0 for p in sorted(made)] == [True, False, True, True, False]
+    assert list(ranked) == [made["p0"], made["p1"], made["p4"]]

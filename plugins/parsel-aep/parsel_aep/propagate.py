@@ -23,7 +23,7 @@ import functools
 import hashlib
 import itertools
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -206,6 +206,12 @@ def _least_scored(state: _State, solved: list[tuple[int, _Cluster]]) -> tuple[tu
     return None
 
 
+def _part_by_part(program: Program) -> bool:
+    """Whether ``program`` is part ops in one layer: each part's corners are then its rest
+    corners under the ops that move it (:meth:`Propagation.parts_of`)."""
+    return all(op.acts_on == "part" for op in program.ops) and len(program.layer_slices) == 1
+
+
 def _digest(array: np.ndarray) -> bytes:
     """A 128-bit digest of an array's shape, type and values."""
     digest = hashlib.blake2b(repr((array.shape, array.dtype.str)).encode(), digest_size=16)
@@ -311,7 +317,7 @@ class Propagation:
                 self._corners.clear()
                 self._part_corners.clear()
             program = self.program(ops)
-            if all(op.acts_on == "part" for op in ops) and len(program.layer_slices) == 1:
+            if _part_by_part(program):
                 parts = self.parts_of(program)
             else:  # group layouts, layers: the whole evaluation
                 parts = evaluate(program, self.shape, {self.parameter.name: self.xs}).parts
@@ -329,10 +335,7 @@ class Propagation:
         same ops on the same arrays: the same bits). The loop, the repair pass and the
         joint pass mostly try programs that differ from the last in a part or two."""
         program.validate(self.shape)
-        moving: dict[str, list[EditOp]] = {pid: [] for pid in self.rest}
-        for op in program.ops:
-            for target in op_targets(op, self.shape):
-                moving[target].append(op)
+        moving = self.moving_ops(program.ops, self.rest)
         values = {self.parameter.name: self.xs}
         amounts: dict[int, np.ndarray] = {}  # (an op on a group's parent moves every member)
         out = {}
@@ -351,6 +354,15 @@ class Propagation:
             out[pid] = known[1]
         return out
 
+    def moving_ops(self, ops: Sequence[EditOp], parts: Iterable[str]) -> dict[str, list[EditOp]]:
+        """The ops that move each of ``parts`` (its own and its group's), in program order."""
+        moving: dict[str, list[EditOp]] = {pid: [] for pid in parts}
+        for op in ops:
+            for target in op_targets(op, self.shape):
+                if target in moving:
+                    moving[target].append(op)
+        return moving
+
     def symbolic_parts(self, ops: Sequence[EditOp], only: Sequence[str]) -> dict[str, np.ndarray]:
         """``symbolic_corners(self.program(ops), ..., only=only)``, part by part for a program
         of part ops in one layer (as :meth:`parts_of`): a part's expressions are its rest
@@ -358,14 +370,10 @@ class Propagation:
         before keeps its expressions (the searches derive against the same decided
         neighbours again and again). Other programs are derived whole."""
         program = self.program(ops)
-        if not (all(op.acts_on == "part" for op in ops) and len(program.layer_slices) == 1):
+        if not _part_by_part(program):
             return symbolic_corners(program, self.shape, self.backend, only=only)
         program.validate(self.shape)
-        moving: dict[str, list[EditOp]] = {pid: [] for pid in only if pid in self.rest}
-        for op in ops:
-            for target in op_targets(op, self.shape):
-                if target in moving:
-                    moving[target].append(op)
+        moving = self.moving_ops(ops, [pid for pid in only if pid in self.rest])
         out = {}
         for pid, part_ops in moving.items():
             if not part_ops:  # (a part no op moves keeps its float corners)

@@ -164,15 +164,14 @@ def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.concatenate([b * z - c * y, c * x - a * z, a * y - b * x], axis=-1)
 
 
-def _apply_batch(kind: type, moves: np.ndarray | None, fields: tuple[np.ndarray, ...], rest: np.ndarray,
+def _apply_batch(kind: type, moves: np.ndarray | None, fields: tuple[np.ndarray, ...], points: np.ndarray,
                  amount: float) -> np.ndarray:
-    """``np.stack([op.apply(rest, amount, NUMPY_MATH) for op in ops])`` for ops of one class,
+    """``np.stack([op.apply(points, amount, NUMPY_MATH) for op in ops])`` for ops of one class,
     given their vector fields (:func:`_fields`, each (G, 1, 3)) and the corners each moves
     (:func:`_moved_corners`), with the operations of each op's ``transform`` in the same
     order, so the result is the same to the last bit: every corner is transformed (element
     by element, as an op on a feature transforms its own corners) and an op on a feature
     keeps the rest of its corners where they are."""
-    points = rest
     if kind is Translate:
         (d,) = fields
         moved = points + d * amount
@@ -200,7 +199,7 @@ def _apply_batch(kind: type, moves: np.ndarray | None, fields: tuple[np.ndarray,
         moved = o + centred + _dot(centred, n) * d * amount
     if moves is None:
         return moved
-    return np.where(moves, moved, rest)
+    return np.where(moves, moved, points)
 
 
 _BATCHED = frozenset({Translate, Rotate, Scale1D, Scale2D, Scale3D, Shear})

@@ -67,12 +67,17 @@ def _warn_outside(path: Path, data: dict[str, Any]) -> None:
 
 def config_path() -> Path:
     """The configuration file: ``PARSEL_CONFIG``, else ``parsel.toml`` in the working directory."""
-    return Path(os.environ.get("PARSEL_CONFIG", "parsel.toml"))
+    return Path(_config_name())
+
+
+def _config_name() -> str:
+    """:func:`config_path` as text (every limit reads it: no ``Path`` built on the way)."""
+    return os.environ.get("PARSEL_CONFIG", "parsel.toml")
 
 
 def load_settings() -> dict[str, Any]:
     """The ``[parsel]`` table of the configuration file (empty when there is none)."""
-    if not os.path.isfile(os.environ.get("PARSEL_CONFIG", "parsel.toml")):  # (read for every limit: cheaply)
+    if not os.path.isfile(_config_name()):
         if "PARSEL_CONFIG" in os.environ:
             raise ParselError(f"{config_path()}: configuration file (PARSEL_CONFIG) does not exist")
         return {}

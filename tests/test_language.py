@@ -495,6 +495,27 @@ def test_prompts_are_issued_concurrently(parsel_register, table):
         (t.key, s) for t in build_tasks(table, "x", "full") for s in range(5)], "the record is in task order"
 
 
+def test_replies_are_read_in_the_calling_thread(parsel_register, table, monkeypatch):
+    """Calls run on worker threads; their code is parsed on the calling one: CPython 3.11's
+    ``ast`` keeps its recursion depth in module state, and replies parsed by several
+    threads at once can fail with "AST constructor recursion depth mismatch"."""
+    from parsel_core.language import api
+
+    provider = _register(parsel_register, Scripted(delay=0.05))
+    parsed_on = set()
+    parse = api.parse_code
+
+    def recorded(code):
+        parsed_on.add(threading.current_thread().name)
+        return parse(code)
+
+    monkeypatch.setattr(api, "parse_code", recorded)
+    result = infer(table, "make the table wider", provider="scripted", samples=3)
+    assert len(provider.threads) > 1
+    assert parsed_on == {threading.current_thread().name}
+    assert all(e["parsed"] is not None and e["seconds"] > 0 and "_unread" not in e for e in result.record)
+
+
 def test_provider_errors_are_per_sample(parsel_register, table):
     class Flaky(Scripted):
         name = "flaky"

@@ -283,8 +283,19 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
         entry.update(reply=completion.text, prompt_tokens=completion.prompt_tokens,
                      completion_tokens=completion.completion_tokens,
                      cost=0.0 if entry["cached"] else completion.cost)
+        entry["seconds"] = time.perf_counter() - started
+        entry["_unread"] = True
+        return entry
+
+    def read(task: Task, entry: dict[str, Any]) -> None:
+        """The reply's code read into ``entry``, in the calling thread: CPython 3.11 keeps
+        ``ast``'s recursion depth in module state, so replies parsed by several workers at
+        once may fail (SystemError: AST constructor recursion depth mismatch)."""
+        if not entry.pop("_unread", False):
+            return
+        started = time.perf_counter()
         try:
-            value, block, blocks = read_blocks(completion.text, parsers[task.key])
+            value, block, blocks = read_blocks(entry["reply"], parsers[task.key])
             if blocks > 1:
                 entry["code_block"] = f"{block + 1} of {blocks}"
         except ReplyError as exc:
@@ -296,8 +307,7 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
         else:
             entry["_value"] = value
             entry["parsed"] = to_json(value)
-        entry["seconds"] = time.perf_counter() - started
-        return entry
+        entry["seconds"] += time.perf_counter() - started
 
     jobs = [(task, sample) for task in tasks for sample in range(samples)]
     started = time.perf_counter()
@@ -306,6 +316,8 @@ def run_tasks(shape: ShapeGraph, tasks: Sequence[Task], *, provider: str, model:
     entries = [call(*jobs[0])]
     with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="parsel-llm") as pool:
         entries.extend(pool.map(lambda job: call(*job), jobs[1:]))
+    for (task, _), entry in zip(jobs, entries):
+        read(task, entry)
     values: dict[str, list[tuple[bool, Any]]] = {task.key: [] for task in tasks}
     for entry in entries:
         ok = "_value" in entry

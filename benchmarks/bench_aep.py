@@ -11,7 +11,7 @@ AEP program versus re-solving placements with the ``online`` solver.
 With ``--baseline REV`` the random-seed requests are also solved side by side by REV's
 ``plugins/parsel-aep`` and the working tree (``bench_aep_speed.py``'s alternating worker
 processes): both sides' CPU median and p95 from the same run, and whether every program
-is the same (exit status 1 if not).
+is the same (exit status 1 if not); ``--baseline-core`` takes REV's ``parsel_core`` too.
 
 Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shapeassembly] [--baseline REV]``
 """
@@ -183,7 +183,7 @@ def side_by_side(args: argparse.Namespace, backend: str, extra: dict) -> bool:
     for case in todo:
         case["options"] = {**extra, "backend": backend}
     print(f"\nside by side with {args.baseline} ({backend}, {len(todo)} requests, alternating workers):", flush=True)
-    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None)
+    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, core=args.baseline_core)
     print(f"{'solver':<22}{'median s':>10}{'p95 s':>9}{'max s':>9}{'total s':>9}")
     for name, label in (("old", args.baseline), ("new", "working tree")):
         t = found.times[name]
@@ -210,6 +210,8 @@ def main() -> None:
     parser.add_argument("--baseline", metavar="REV",
                         help="also solve the random-seed requests with REV's plugins/parsel-aep, side by side "
                              "with the working tree in two worker processes (bench_aep_speed.py), and compare")
+    parser.add_argument("--baseline-core", action="store_true",
+                        help="with --baseline, take parsel_core from REV too (relations and ops as they were)")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
     extra = {}

@@ -4,9 +4,10 @@ A fixed list of requests (the first random-seed requests of ``bench_aep.py``, de
 seeds spread over ``bench_aep.py``'s designer shapes, and the seeds of the property
 tests in ``plugins/parsel-aep/tests/test_properties.py``) is solved by two worker
 processes, one importing ``parsel_aep`` from the working tree and one from a baseline
-revision (``git archive`` of ``plugins/parsel-aep`` into a temporary folder, put first on
-``PYTHONPATH``). The requests alternate between the two workers, so a busy machine slows
-both alike; each request's CPU time is ``time.process_time`` inside its worker.
+revision (``git archive`` of ``plugins/parsel-aep``, with ``--core`` of ``parsel_core`` too,
+into a temporary folder, put first on ``PYTHONPATH``). The requests alternate between the
+two workers, so a busy machine slows both alike; each request's CPU time is
+``time.process_time`` inside its worker.
 
 For every request the program's JSON text, the rejected relations and the solver's
 counts (its stats without times) must be byte-for-byte the same in both; any difference
@@ -15,7 +16,7 @@ the samples) and the exit status is 1. Counts of work done (``WORK_COUNTS``: can
 screened, searches proved hopeless without screening) may differ; their totals are
 printed at the end.
 
-    python benchmarks/bench_aep_speed.py [--baseline REV] [--random 40] [--designer 40]
+    python benchmarks/bench_aep_speed.py [--baseline REV [--core]] [--random 40] [--designer 40]
         [--no-properties] [--save DIR] [--only LABEL-SUBSTRING]
 
 Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
@@ -161,12 +162,14 @@ class Worker:
         self.process.wait()
 
 
-def baseline_tree(revision: str, into: Path) -> str:
-    """``plugins/parsel-aep`` at ``revision``, extracted into ``into``; the folder to import from."""
-    archive = subprocess.run(["git", "archive", revision, "plugins/parsel-aep"], cwd=ROOT, check=True,
+def baseline_tree(revision: str, into: Path, core: bool = False) -> str:
+    """``plugins/parsel-aep`` at ``revision`` (with ``core``, ``parsel_core`` too), extracted
+    into ``into``; the ``PYTHONPATH`` to import them from."""
+    paths = ["plugins/parsel-aep", *(["parsel_core"] if core else [])]
+    archive = subprocess.run(["git", "archive", revision, *paths], cwd=ROOT, check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
-    return str(into / "plugins" / "parsel-aep")
+    return os.pathsep.join([str(into / "plugins" / "parsel-aep"), *([str(into)] if core else [])])
 
 
 # -- comparing ---------------------------------------------------------------------------
@@ -222,6 +225,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--baseline", help="git revision to compare with (its plugins/parsel-aep)")
+    parser.add_argument("--core", action="store_true",
+                        help="take parsel_core from the baseline too (for changes to relations or ops)")
     parser.add_argument("--random", type=int, default=40, help="first random-seed requests of bench_aep")
     parser.add_argument("--designer", type=int, default=40, help="designer seeds, spread over the shapes")
     parser.add_argument("--no-properties", action="store_true", help="leave out the property-test seeds")
@@ -238,7 +243,8 @@ def main() -> None:
         return
     todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
-    found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference)
+    found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference,
+                    core=args.core)
     print()
     found.print_summary()
     if found.mismatches:
@@ -268,15 +274,15 @@ class Comparison:
 
 
 def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] | None = None,
-            save: Path | None = None, reference: Path | None = None, echo=None) -> Comparison:
+            save: Path | None = None, reference: Path | None = None, echo=None, core: bool = False) -> Comparison:
     """Solve ``todo`` (:func:`cases`) in a worker on the working tree and, with ``baseline``,
-    in one on that revision's ``plugins/parsel-aep``, alternating; ``echo`` gets a line per
-    request (printed by default)."""
+    in one on that revision's ``plugins/parsel-aep`` (and ``parsel_core`` with ``core``),
+    alternating; ``echo`` gets a line per request (printed by default)."""
     echo = echo or (lambda line: print(line, flush=True))
     with tempfile.TemporaryDirectory() as tmp:
         sides = [Worker("new", None, env)]
         if baseline:
-            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp))))
+            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp), core)))
         times: dict[str, list[float]] = {w.name: [] for w in sides}
         mismatches = []
         work: dict[str, dict[str, int]] = {}

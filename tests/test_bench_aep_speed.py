@@ -8,6 +8,7 @@ a saved run's byte for byte; ``bench_aep.py --baseline`` reports through it.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -54,3 +55,14 @@ def test_a_baseline_revision_solves_beside_the_working_tree():
     found = bench_aep_speed.compare(requests()[:1], baseline="HEAD", echo=lambda line: None)
     assert set(found.times) == {"old", "new"} and found.compared
     assert all(t > 0 for side in found.times.values() for t in side)
+
+
+def test_a_baseline_with_its_core_imports_both_from_the_revision(tmp_path):
+    if subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True).returncode:
+        pytest.skip("not a git checkout")
+    path = bench_aep_speed.baseline_tree("HEAD", tmp_path, core=True)
+    code = "import parsel_aep, parsel_core.relations as r; print(parsel_aep.__file__); print(r.__file__)"
+    found = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": path},
+                           cwd=tmp_path, capture_output=True, text=True, check=True).stdout.split()
+    assert all(Path(f).is_relative_to(tmp_path) for f in found), found
+    assert bench_aep_speed.compare(requests()[:1], baseline="HEAD", echo=lambda line: None, core=True).compared

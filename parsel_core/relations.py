@@ -38,6 +38,14 @@ def _concatenate(parts: list[np.ndarray]) -> np.ndarray:
     return np.concatenate([np.broadcast_to(p, batch + p.shape[-1:]) for p in parts], axis=-1)
 
 
+def _constant(values, dtype=float) -> np.ndarray:
+    """``values`` as a read-only array: a relation's fixed vectors and index maps, made once
+    (constraints are evaluated many thousand times while edits are searched)."""
+    out = np.array(values, dtype=dtype)
+    out.flags.writeable = False
+    return out
+
+
 def _flat(residual: np.ndarray) -> np.ndarray:
     """Residual components along the last axis, sample axes (if any) kept in front."""
     return residual.reshape(residual.shape[:-2] + (-1,))
@@ -71,7 +79,11 @@ class Relation:
         raw = self.constraint(corners)
         if not self.rest_offset:
             return raw
-        return raw - np.asarray(self.rest_offset, dtype=float)
+        return raw - self._rest_offset
+
+    @cached_property
+    def _rest_offset(self) -> np.ndarray:
+        return _constant(self.rest_offset)
 
     def anchored(self, rest: Corners) -> Relation:
         """This relation with its rest offset measured on the rest corners ``rest``."""
@@ -127,8 +139,13 @@ class ReflectionSymmetry(Relation):
     normal: tuple[float, float, float] = (1.0, 0.0, 0.0)
     correspondence: tuple[int, ...] = tuple(range(8))
 
+    @cached_property
+    def _plane(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Normal, origin and corner permutation as arrays."""
+        return _constant(self.normal), _constant(self.origin), _constant(self.correspondence, np.intp)
+
     def reflect(self, points: np.ndarray) -> np.ndarray:
-        n, o = _vec(self.normal), _vec(self.origin)
+        n, o, _ = self._plane
         d = (points - o) @ n if points.dtype != object else np.dot(points - o, n)
         return points - d[..., None] * (2 * n)
 
@@ -138,8 +155,8 @@ class ReflectionSymmetry(Relation):
         # legs outwards by different amounts. The offset is the mean of the mirrored corners'
         # gaps along n, so the constraint stays linear in the corners.
         a, b = (corners[m] for m in self.members)
-        gap = b[..., list(self.correspondence), :] - self.reflect(a)
-        n = _vec(self.normal)
+        n, _, perm = self._plane
+        gap = b[..., perm, :] - self.reflect(a)
         along = gap @ n if gap.dtype != object else np.dot(gap, n)
         shift = along.sum(axis=-1, keepdims=True) / 8.0
         return _flat(gap - shift[..., None] * n)
@@ -162,9 +179,14 @@ class TranslationSymmetry(Relation):
     step: tuple[float, float, float] = (0.0, 0.0, 0.0)
     correspondence: tuple[tuple[int, ...], ...] = ()
 
+    @cached_property
+    def _perms(self) -> tuple[np.ndarray, ...]:
+        """Each member's corner permutation as an index array."""
+        return tuple(_constant(self.correspondence[j] if self.correspondence else range(8), np.intp)
+                     for j in range(len(self.members)))
+
     def _member(self, corners, j):
-        perm = self.correspondence[j] if self.correspondence else tuple(range(8))
-        return corners[self.members[j]][..., list(perm), :]
+        return corners[self.members[j]][..., self._perms[j], :]
 
     def constraint(self, corners):
         h0 = self._member(corners, 0)
@@ -263,10 +285,14 @@ class GroundContact(Relation):
 
     def constraint(self, corners):
         h = corners[self.members[0]]
-        w = np.asarray(self.weights)
+        w, up = self._arrays
         points = w @ h if h.dtype != object else np.dot(w, h)
-        up = _vec(self.up)
         return (points @ up if points.dtype != object else np.dot(points, up)) - self.height
+
+    @cached_property
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The contact weights and the up direction as arrays."""
+        return _constant(self.weights), _constant(self.up)
 
     def params(self):
         return {"weights": self.weights, "height": self.height, "up": self.up}

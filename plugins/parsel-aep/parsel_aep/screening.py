@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cache
+from itertools import chain
 from types import SimpleNamespace
 
 import numpy as np
@@ -149,7 +150,9 @@ def _fields(kind: type, ops: Sequence[EditOp]) -> tuple[np.ndarray, ...]:
 
 def _column(ops: Sequence[EditOp], name: str) -> np.ndarray:
     """A vector field of every op, shaped (G, 1, 3) to broadcast over the corners."""
-    return np.array([getattr(op, name) for op in ops], dtype=float)[:, None, :]
+    # (read from one flat iterator: a list of tuples makes numpy discover its shape first)
+    values = chain.from_iterable([getattr(op, name) for op in ops])
+    return np.fromiter(values, dtype=float, count=3 * len(ops)).reshape(len(ops), 1, 3)
 
 
 def _dot(points: np.ndarray, n: np.ndarray) -> np.ndarray:

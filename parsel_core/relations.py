@@ -46,6 +46,12 @@ def _constant(values, dtype=float) -> np.ndarray:
     return out
 
 
+def _member_permutations(correspondence: tuple[tuple[int, ...], ...], members: int) -> tuple[np.ndarray, ...]:
+    """Each member's corner permutation of a group relation as an index array (the
+    identity when the relation records none)."""
+    return tuple(_constant(correspondence[j] if correspondence else range(8), np.intp) for j in range(members))
+
+
 def _flat(residual: np.ndarray) -> np.ndarray:
     """Residual components along the last axis, sample axes (if any) kept in front."""
     return residual.reshape(residual.shape[:-2] + (-1,))
@@ -181,9 +187,7 @@ class TranslationSymmetry(Relation):
 
     @cached_property
     def _perms(self) -> tuple[np.ndarray, ...]:
-        """Each member's corner permutation as an index array."""
-        return tuple(_constant(self.correspondence[j] if self.correspondence else range(8), np.intp)
-                     for j in range(len(self.members)))
+        return _member_permutations(self.correspondence, len(self.members))
 
     def _member(self, corners, j):
         return corners[self.members[j]][..., self._perms[j], :]
@@ -214,13 +218,16 @@ class RotationSymmetry(Relation):
         """Whether the instances go all the way round (count x angle = 2 pi)."""
         return abs(len(self.members) * abs(self.angle) - 2 * np.pi) < 1e-3
 
+    @cached_property
+    def _perms(self) -> tuple[np.ndarray, ...]:
+        return _member_permutations(self.correspondence, len(self.members))
+
     def constraint(self, corners):
         o = _vec(self.center)
         h0 = corners[self.members[0]]
         parts = []
         for j in range(1, len(self.members)):
-            perm = self.correspondence[j] if self.correspondence else tuple(range(8))
-            hj = corners[self.members[j]][..., list(perm), :]
+            hj = corners[self.members[j]][..., self._perms[j], :]
             r = rotation_matrix(self.axis, j * self.angle)
             expected = o + (h0 - o) @ r.T if h0.dtype != object else o + np.dot(h0 - o, r.T)
             parts.append(_flat(hj - expected))
@@ -253,10 +260,7 @@ class Attachment(Relation):
     @cached_property
     def _weights(self) -> tuple[np.ndarray, np.ndarray]:
         """``weights_a`` and ``weights_b`` as arrays (read-only), made once."""
-        out = np.array(self.weights_a), np.array(self.weights_b)
-        for w in out:
-            w.flags.writeable = False
-        return out
+        return _constant(self.weights_a), _constant(self.weights_b)
 
     def constraint(self, corners):
         a, b = (corners[m] for m in self.members)

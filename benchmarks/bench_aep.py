@@ -186,9 +186,8 @@ def side_by_side(args: argparse.Namespace, backend: str, extra: dict) -> bool:
     found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, core=args.baseline_core)
     print(f"{'solver':<22}{'median s':>10}{'p95 s':>9}{'max s':>9}{'total s':>9}")
     for name, label in (("old", args.baseline), ("new", "working tree")):
-        t = found.times[name]
-        print(f"{label[:21]:<22}{statistics.median(t):>10.3f}{bench_aep_speed.percentile(t, 0.95):>9.3f}"
-              f"{max(t):>9.3f}{sum(t):>9.1f}")
+        median, p95, most, total = found.figures(name)
+        print(f"{label[:21]:<22}{median:>10.3f}{p95:>9.3f}{most:>9.3f}{total:>9.1f}")
     print(f"identical programs, rejections and counts: {found.requests - len(found.mismatches)}/{found.requests}")
     for label, why in found.mismatches:
         print(f"  {label}: {why}")

@@ -261,10 +261,16 @@ class Comparison:
     requests: int
     compared: bool
 
+    def figures(self, name: str) -> tuple[float, float, float, float]:
+        """Median, p95, max and total CPU seconds of side ``name``."""
+        t = self.times[name]
+        return statistics.median(t), percentile(t, 0.95), max(t), sum(t)
+
     def print_summary(self) -> None:
         for name, t in self.times.items():
-            print(f"{name}: {len(t)} requests, CPU median {statistics.median(t):.3f} s, "
-                  f"p95 {percentile(t, 0.95):.3f} s, max {max(t):.3f} s, total {sum(t):.1f} s")
+            median, p95, most, total = self.figures(name)
+            print(f"{name}: {len(t)} requests, CPU median {median:.3f} s, "
+                  f"p95 {p95:.3f} s, max {most:.3f} s, total {total:.1f} s")
         for name, counts in self.work.items():
             print(f"{name}: work " + ", ".join(f"{k} {v}" for k, v in counts.items()))
         if self.compared:

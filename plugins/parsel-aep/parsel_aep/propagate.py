@@ -23,7 +23,7 @@ import functools
 import hashlib
 import itertools
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -212,6 +212,22 @@ def _part_by_part(program: Program) -> bool:
     return all(op.acts_on == "part" for op in program.ops) and len(program.layer_slices) == 1
 
 
+def _moved_part(known: dict, pid: str, rest: np.ndarray, ops: Sequence[EditOp], start: Callable[[np.ndarray], Any],
+                amount: Callable[[EditOp], Any], math_ns: Any) -> Any:
+    """Part ``pid``'s corners under ``ops`` (those moving it, in order), from ``start`` of
+    its ``rest`` corners, each op at ``amount(op)``; remembered in ``known`` by the ops'
+    identities (the entry holds the ops, so the ids stay theirs) and read-only."""
+    key = (pid, tuple(map(id, ops)))
+    found = known.get(key)
+    if found is None:
+        corners = start(rest)
+        for op in ops:
+            corners = op.apply(corners, amount(op), math_ns)
+        corners.flags.writeable = False
+        found = known[key] = (tuple(ops), corners)
+    return found[1]
+
+
 def _digest(array: np.ndarray) -> bytes:
     """A 128-bit digest of an array's shape, type and values."""
     digest = hashlib.blake2b(repr((array.shape, array.dtype.str)).encode(), digest_size=16)
@@ -338,21 +354,18 @@ class Propagation:
         moving = self.moving_ops(program.ops, self.rest)
         values = {self.parameter.name: self.xs}
         amounts: dict[int, np.ndarray] = {}  # (an op on a group's parent moves every member)
-        out = {}
-        for pid, ops in moving.items():
-            key = (pid, tuple(map(id, ops)))
-            known = self._part_corners.get(key)
+
+        def amount(op: EditOp) -> np.ndarray:
+            known = amounts.get(id(op))
             if known is None:
-                corners = np.broadcast_to(self.rest[pid], (len(self.xs), 8, 3)).copy()
-                for op in ops:
-                    amount = amounts.get(id(op))
-                    if amount is None:
-                        amount = amounts[id(op)] = op_amount(op, values)[..., None, None]
-                    corners = op.apply(corners, amount, NUMPY_MATH)
-                corners.flags.writeable = False
-                known = self._part_corners[key] = (tuple(ops), corners)
-            out[pid] = known[1]
-        return out
+                known = amounts[id(op)] = op_amount(op, values)[..., None, None]
+            return known
+
+        def sampled(rest: np.ndarray) -> np.ndarray:
+            return np.broadcast_to(rest, (len(self.xs), 8, 3)).copy()
+
+        return {pid: _moved_part(self._part_corners, pid, self.rest[pid], ops, sampled, amount, NUMPY_MATH)
+                for pid, ops in moving.items()}
 
     def moving_ops(self, ops: Sequence[EditOp], parts: Iterable[str]) -> dict[str, list[EditOp]]:
         """The ops that move each of ``parts`` (its own and its group's), in program order."""
@@ -374,21 +387,10 @@ class Propagation:
             return symbolic_corners(program, self.shape, self.backend, only=only)
         program.validate(self.shape)
         moving = self.moving_ops(ops, [pid for pid in only if pid in self.rest])
-        out = {}
-        for pid, part_ops in moving.items():
-            if not part_ops:  # (a part no op moves keeps its float corners)
-                out[pid] = self.rest[pid]
-                continue
-            key = (pid, tuple(map(id, part_ops)))
-            known = self._symbolic.get(key)
-            if known is None:
-                corners = self.backend.corners(self.rest[pid])
-                for op in part_ops:
-                    corners = op.apply(corners, self.expression(op), opmath)
-                corners.flags.writeable = False
-                known = self._symbolic[key] = (tuple(part_ops), corners)
-            out[pid] = known[1]
-        return out
+        # (a part no op moves keeps its float corners)
+        return {pid: _moved_part(self._symbolic, pid, self.rest[pid], part_ops, self.backend.corners,
+                                 self.expression, opmath) if part_ops else self.rest[pid]
+                for pid, part_ops in moving.items()}
 
     def expression(self, op: EditOp) -> Any:
         """``op``'s amount parsed by the backend, once per op (the entry holds the op)."""

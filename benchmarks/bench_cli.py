@@ -1,7 +1,7 @@
 """Whole-command cost: ``parsel --help``, ``inspect chair --json`` and ``edit chair "make the chair wider"``.
 
-Each command runs as a fresh process, as a user runs it, for this checkout and for a
-base commit, alternately in the same run (so machine load hits both alike). CPU time is
+Each command runs as a fresh process, as a user runs it (the side's own ``parsel``
+script entry, ``[project.scripts]``), for this checkout and for a base commit, alternately in the same run (so machine load hits both alike). CPU time is
 the child's user + system time (``os.wait4``), wall time its elapsed time; the table
 prints medians and the ratios base / this checkout, then checks the goal: ``parsel edit
 chair ...`` at most 1 s of CPU. The base commit's sources are extracted with ``git
@@ -26,6 +26,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,11 +72,18 @@ def check_sources(env: dict[str, str], tree: Path, cwd: Path) -> None:
             raise SystemExit(f"bench_cli: {file} is not from {tree}; PYTHONPATH did not take precedence")
 
 
-def run_once(argv: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
+def entry_point(tree: Path) -> list[str]:
+    """The interpreter command that runs ``tree``'s own ``parsel`` script: what the console
+    script pip writes does (import the ``[project.scripts]`` function and exit with it)."""
+    module, function = tomllib.loads((tree / "pyproject.toml").read_text())["project"]["scripts"]["parsel"].split(":")
+    return [sys.executable, "-c", f"import sys\nfrom {module} import {function}\nsys.argv[0] = 'parsel'\n"
+                                  f"sys.exit({function}())"]
+
+
+def run_once(parsel: list[str], argv: list[str], env: dict[str, str], cwd: Path) -> tuple[float, float]:
     """(CPU seconds, wall seconds) of one ``parsel`` process."""
-    parsel = Path(sys.executable).with_name("parsel")
     started = time.perf_counter()
-    process = subprocess.Popen([str(parsel), *argv], env=env, cwd=cwd, stdout=subprocess.DEVNULL,
+    process = subprocess.Popen([*parsel, *argv], env=env, cwd=cwd, stdout=subprocess.DEVNULL,
                                stderr=subprocess.PIPE)
     _, status, usage = os.wait4(process.pid, 0)
     wall = time.perf_counter() - started
@@ -105,6 +113,7 @@ def main() -> None:
         extract(base, tmp_path / "base")
         sides = {"base": tmp_path / "base", "this": ROOT}
         envs = {name: side_env(tree, tmp_path / f"pycache-{name}") for name, tree in sides.items()}
+        entries = {name: entry_point(tree) for name, tree in sides.items()}
         work = tmp_path / "work"
         work.mkdir()
         for name, tree in sides.items():
@@ -116,11 +125,11 @@ def main() -> None:
         results: dict[tuple[str, str], list[tuple[float, float]]] = {}
         for label, template in COMMANDS.items():
             for name in sides:  # warm-up: bytecode caches, page cache
-                run_once([a.format(out=work / f"warm-{name}") for a in template], envs[name], work)
+                run_once(entries[name], [a.format(out=work / f"warm-{name}") for a in template], envs[name], work)
             for i in range(args.runs):
                 for name in (sides if i % 2 == 0 else reversed(list(sides))):
                     argv = [a.format(out=work / f"out-{name}") for a in template]
-                    results.setdefault((label, name), []).append(run_once(argv, envs[name], work))
+                    results.setdefault((label, name), []).append(run_once(entries[name], argv, envs[name], work))
         print(f"\n{'command':<44}{'CPU base':>10}{'CPU this':>10}{'ratio':>8}{'wall base':>11}{'wall this':>11}"
               f"{'ratio':>8}")
         for label in COMMANDS:

@@ -6,14 +6,38 @@ and lose much on a busy machine: a step of the 437k-vertex chair took a median 1
 one thread against 190-310 ms on the default threads next to two busy processes
 (``benchmarks/bench_deform.py``, docs/meshes.md). One thread also makes the rounding the
 same on every machine, so AEP writes the same program bit for bit everywhere.
+
+A process that starts OpenBLAS with several threads also pays for them outside any
+product: the ``parsel`` command sets the thread variables to one before numpy loads
+(:func:`one_thread_unless_chosen`), unless the user chose a size.
 """
 
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, MutableMapping
 from contextlib import contextmanager
 from functools import cache
+
+#: Thread-pool sizes of numeric libraries, read once when numpy (its BLAS) loads.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def one_thread_unless_chosen(environ: MutableMapping[str, str]) -> list[str]:
+    """Set every :data:`THREAD_VARIABLES` to one thread when the user set none of them;
+    the names set (none when the user chose a size for any of them).
+
+    Only effective before numpy is imported. Starting OpenBLAS's pool costs a process
+    about 0.14 s of CPU on a two-core machine, and its idle threads keep spinning after
+    each product; ``parsel edit chair "make the chair wider"`` took a median 0.93 s of
+    CPU with the default pool and 0.79 s with one thread (benchmarks/bench_cli.py).
+    """
+    if any(name in environ for name in THREAD_VARIABLES):
+        return []
+    for name in THREAD_VARIABLES:
+        environ[name] = "1"
+    return list(THREAD_VARIABLES)
+
 
 #: How deep this thread is in :func:`one_blas_thread` blocks.
 _depth = threading.local()

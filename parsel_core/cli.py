@@ -721,5 +721,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         warnings.formatwarning = previous  # callers of main() in-process keep their own format
 
 
-if __name__ == "__main__":
+def console() -> None:
+    """The ``parsel`` program: :func:`main` in a process of its own, BLAS on one thread
+    unless the user chose a size (:func:`parsel_core.blas.one_thread_unless_chosen`;
+    set before any plugin loads numpy). Callers of :func:`main` in-process keep theirs."""
+    import os
+
+    from parsel_core.blas import one_thread_unless_chosen
+
+    one_thread_unless_chosen(os.environ)
     sys.exit(main())
+
+
+if __name__ == "__main__":
+    console()

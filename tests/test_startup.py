@@ -6,6 +6,7 @@ import creeping back in, whichever module brings it.
 
 import argparse
 import json
+import os
 import re
 import subprocess
 import sys
@@ -137,3 +138,58 @@ def test_the_networkx_view_is_built_on_first_use_and_agrees_with_neighbours():
     for pid in shape.all_parts:
         assert shape.neighbours(pid) == sorted(n for n in graph.neighbors(pid) if n != pid)
     assert {key for _, _, key in graph.edges(keys=True)} == set(shape.relations)
+
+
+def blas_threads_of_command(args: list[str], env: dict[str, str]) -> list[int]:
+    """The BLAS pool sizes numpy had in a ``parsel`` process (the console entry, run the
+    way the installed script runs it), read when it exits."""
+    probe = ("import atexit, json, sys\n"
+             "def report():\n"
+             "    from threadpoolctl import threadpool_info\n"
+             "    sizes = [i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas']\n"
+             "    print('BLAS ' + json.dumps(sizes), file=sys.stderr)\n"
+             "atexit.register(report)\n"
+             f"sys.argv = ['parsel', *{args!r}]\n"
+             "from parsel_core.cli import console\n"
+             "console()\n")
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
+    assert result.returncode == 0, result.stderr
+    return json.loads(result.stderr.rsplit("BLAS ", 1)[1])
+
+
+def clean_environment() -> dict[str, str]:
+    from parsel_core.blas import THREAD_VARIABLES
+
+    return {k: v for k, v in os.environ.items() if k not in THREAD_VARIABLES}
+
+
+def test_the_command_runs_blas_on_one_thread():
+    sizes = blas_threads_of_command(["inspect", "tiny_table", "--json"], clean_environment())
+    assert sizes and all(size == 1 for size in sizes), sizes
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="one core: every pool has one thread")
+def test_a_thread_count_the_user_chose_is_kept():
+    sizes = blas_threads_of_command(["inspect", "tiny_table", "--json"],
+                                    {**clean_environment(), "OPENBLAS_NUM_THREADS": "2"})
+    assert sizes and all(size == 2 for size in sizes), sizes
+
+
+def test_main_in_process_leaves_the_environment_alone():
+    from parsel_core.blas import THREAD_VARIABLES
+
+    probe = (run_cli("inspect", "tiny_table", "--json")
+             + f"\nimport os\nassert not [n for n in {THREAD_VARIABLES!r} if n in os.environ]")
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300,
+                            env=clean_environment())
+    assert result.returncode == 0, result.stderr
+
+
+def test_one_thread_unless_chosen():
+    from parsel_core.blas import THREAD_VARIABLES, one_thread_unless_chosen
+
+    environ = {"PATH": "/bin"}
+    assert one_thread_unless_chosen(environ) == list(THREAD_VARIABLES)
+    assert environ == {"PATH": "/bin", **{name: "1" for name in THREAD_VARIABLES}}
+    chosen = {"OMP_NUM_THREADS": "4"}  # one size chosen: the user's choice, left whole
+    assert one_thread_unless_chosen(chosen) == [] and chosen == {"OMP_NUM_THREADS": "4"}

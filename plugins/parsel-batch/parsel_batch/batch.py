@@ -36,6 +36,7 @@ from typing import Any, TextIO
 
 from parsel_batch.cases import Case
 from parsel_batch.runner import CaseOutcome, RunDefaults, deterministic, error_summary, run_case
+from parsel_core.blas import THREAD_VARIABLES
 from parsel_core.errors import ParselError
 
 RESULTS = "results.jsonl"
@@ -270,10 +271,6 @@ def run_local(cases: Sequence[Case], defaults: RunDefaults, workers: int) -> Ite
     context = multiprocessing.get_context("spawn")
     with _single_threaded_children():
         yield from _run_pools(cases, defaults, workers, context)
-
-
-#: Thread-pool sizes of numeric libraries, read by each worker process when numpy loads.
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 @contextmanager

@@ -232,14 +232,35 @@ def test_live_deformation_matches_a_reference_evaluation(chair, text):
         _assert_close_relative(moved, _reference(shape, evaluation), rtol=1e-6)
 
 
-def test_live_deformation_in_float64_equals_the_deformer(chair):
+@pytest.mark.parametrize("order", ["F", "C"])
+def test_live_deformation_in_float64_equals_the_deformer(chair, order):
     program = Program.from_text(CHAIR_ALL_PART_OPS)
-    live = CageDeformer().live(chair, dtype=np.float64)
+    live = CageDeformer().live(chair, dtype=np.float64, order=order)
     for x in (0.2, 0.7):
         evaluation = evaluate(program, chair, {"x": x, "y": 0.1})
         moved, expected = live(evaluation), deformed_vertices(chair, evaluation)
         for pid in expected:
+            assert moved[pid].flags[f"{order}_CONTIGUOUS"] and moved[pid].shape == expected[pid].shape
             np.testing.assert_allclose(moved[pid], expected[pid], rtol=0, atol=1e-12)
+
+
+def test_live_deformation_layouts_agree(chair):
+    """Interleaved ("C") and per-coordinate ("F") buffers hold the same float32 vertices."""
+    program = Program.from_text(CHAIR_GROUP_PROGRAM)
+    shape = load_shape("chair")
+    by_coordinate, interleaved = CageDeformer().live(shape), CageDeformer().live(shape, order="C")
+    for values in ({"x": 0.3, "y": -0.2}, {"x": 0.9, "y": 0.4}):
+        evaluation = evaluate(program, shape, values)
+        f, c = by_coordinate(evaluation), interleaved(evaluation)
+        assert sorted(f) == sorted(c)
+        for name in f:
+            assert f[name].flags.f_contiguous and c[name].flags.c_contiguous
+            np.testing.assert_allclose(f[name], c[name], rtol=1e-6, atol=1e-6)
+
+
+def test_live_deformation_refuses_an_unknown_layout(chair):
+    with pytest.raises(ValueError, match="order must be 'C' or 'F'"):
+        CageDeformer().live(chair, order="K")
 
 
 def test_the_trilinear_and_affine_products_agree(chair, monkeypatch):

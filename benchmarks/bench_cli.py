@@ -1,10 +1,11 @@
 """Whole-command cost: ``parsel --help``, ``inspect chair --json`` and ``edit chair "make the chair wider"``.
 
 Each command runs as a fresh process, as a user runs it (the side's own ``parsel``
-script entry, ``[project.scripts]``), for this checkout and for a base commit, alternately in the same run (so machine load hits both alike). CPU time is
-the child's user + system time (``os.wait4``), wall time its elapsed time; the table
-prints medians and the ratios base / this checkout, then checks the goal: ``parsel edit
-chair ...`` at most 1 s of CPU. The base commit's sources are extracted with ``git
+script entry, ``[project.scripts]``), for this checkout and for a base commit,
+alternately in the same run (so machine load hits both alike). CPU time is the child's
+user + system time (``os.wait4``), wall time its elapsed time; the table prints medians
+and the ratios base / this checkout, then checks the goal: ``parsel edit chair ...`` at
+most 1 s of CPU. The base commit's sources are extracted with ``git
 archive`` into a temporary folder and put first on ``PYTHONPATH``, so both sides run in
 this checkout's virtual environment (same interpreter, numpy, trimesh ...); bytecode is
 cached in a temporary ``PYTHONPYCACHEPREFIX`` and each side runs every command once

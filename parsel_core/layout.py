@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -63,19 +64,58 @@ def translation_deviations(rest_members: Sequence[np.ndarray]) -> np.ndarray:
     return rest - rest[0][None] - np.arange(len(rest))[:, None, None] * step
 
 
+@dataclass(frozen=True)
+class RestLayout:
+    """What a group's layout reads of the rest shape alone, worked out once per group and
+    program (a slider step, or every sample of a batch, lays the group out again).
+
+    ``anchor_weights``: cage coordinates in the rest parent of the top-down anchors (the
+    first and last members' centres of a row, a ring's centre), ``None`` bottom-up;
+    ``rest_step`` and ``deviations`` (:func:`translation_deviations`): a row's, ``None``
+    for a ring."""
+
+    anchor_weights: np.ndarray | None
+    rest_step: np.ndarray | None = None
+    deviations: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        for array in (self.anchor_weights, self.rest_step, self.deviations):
+            if array is not None:
+                array.flags.writeable = False  # (shared by every layout of the group)
+
+
+def rest_layout(relation: Relation, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
+                top_down: bool) -> RestLayout:
+    """The :class:`RestLayout` of a translation or rotation group."""
+    if isinstance(relation, TranslationSymmetry):
+        k = len(rest_members)
+        rest_step = np.asarray(rest_members[1].mean(axis=0) - rest_members[0].mean(axis=0)) if k > 1 else np.zeros(3)
+        weights = None
+        if top_down:
+            anchors = np.array([rest_members[0].mean(axis=0), rest_members[-1].mean(axis=0)])
+            weights = point_weights(rest_parent, anchors)
+        return RestLayout(weights, rest_step, translation_deviations(rest_members))
+    if isinstance(relation, RotationSymmetry):
+        center = np.asarray(relation.center, dtype=float)
+        return RestLayout(point_weights(rest_parent, center[None]) if top_down else None)
+    raise TypeError(f"relation {relation.id!r} of kind {relation.kind!r} is not a group")
+
+
 def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
                        parent: np.ndarray, members: Sequence[np.ndarray],
-                       ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
+                       ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None) -> np.ndarray:
     """Instances (n, 8, 3) of a translation group after its group ops; instance j < k carries
-    member j's own deviation from the perfect row (:func:`translation_deviations`)."""
+    member j's own deviation from the perfect row (:func:`translation_deviations`).
+    ``rest``: the group's :func:`rest_layout`, when already made."""
+    top_down = ops[0][0].mode == "top_down"
+    rest = rest or rest_layout(relation, rest_parent, rest_members, top_down)
     k = len(rest_members)
     first = members[0]
     template = first - first.mean(axis=0)
-    rest_step = np.asarray(rest_members[1].mean(axis=0) - rest_members[0].mean(axis=0)) if k > 1 else np.zeros(3)
+    rest_step = rest.rest_step
     count = k
-    if ops[0][0].mode == "top_down":
-        anchors = np.array([rest_members[0].mean(axis=0), rest_members[-1].mean(axis=0)])
-        start, end = point_weights(rest_parent, anchors) @ parent
+    if top_down:
+        start, end = rest.anchor_weights @ parent
         span = end - start
         step = span / (k - 1) if k > 1 else np.zeros(3)
         for op, amount in ops:
@@ -100,13 +140,15 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
     offsets = start + np.arange(count)[:, None] * step
     instances = template[None] + offsets[:, None, :]
     kept = min(count, k)
-    instances[:kept] += translation_deviations(rest_members)[:kept]
+    instances[:kept] += rest.deviations[:kept]
     return instances
 
 
 def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent: np.ndarray,
-                    members: Sequence[np.ndarray], ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
-    """Instances (n, 8, 3) of a rotation group after its group ops."""
+                    members: Sequence[np.ndarray], ops: Sequence[tuple[GroupOp, float]],
+                    rest: RestLayout | None = None) -> np.ndarray:
+    """Instances (n, 8, 3) of a rotation group after its group ops (``rest``: as in
+    :func:`translation_layout`)."""
     k = len(relation.members)
     angle = relation.angle
     closed = relation.closed
@@ -114,7 +156,8 @@ def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent:
     count = k
     top_down = ops[0][0].mode == "top_down"
     if top_down:
-        center = (point_weights(rest_parent, center[None]) @ parent)[0]
+        rest = rest or rest_layout(relation, rest_parent, (), top_down)
+        center = (rest.anchor_weights @ parent)[0]
     span = angle * (k - 1)
     for op, amount in ops:
         if isinstance(op, ChangeCount):
@@ -135,10 +178,11 @@ def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent:
 
 def group_instances(relation: Relation, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
                     parent: np.ndarray, members: Sequence[np.ndarray],
-                    ops: Sequence[tuple[GroupOp, float]]) -> np.ndarray:
-    """Dispatch on the group kind; ``ops`` are the group's ops with numeric amounts, in order."""
+                    ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None) -> np.ndarray:
+    """Dispatch on the group kind; ``ops`` are the group's ops with numeric amounts, in order;
+    ``rest`` the group's :func:`rest_layout`, when already made."""
     if isinstance(relation, TranslationSymmetry):
-        return translation_layout(relation, rest_parent, rest_members, parent, members, ops)
+        return translation_layout(relation, rest_parent, rest_members, parent, members, ops, rest)
     if isinstance(relation, RotationSymmetry):
-        return rotation_layout(relation, rest_parent, parent, members, ops)
+        return rotation_layout(relation, rest_parent, parent, members, ops, rest)
     raise TypeError(f"relation {relation.id!r} of kind {relation.kind!r} is not a group")

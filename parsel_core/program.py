@@ -28,7 +28,7 @@ from parsel_core.cas import CASBackend
 from parsel_core.errors import ParameterRangeError, ParselError, ProgramFormatError, UnknownPartError
 from parsel_core.expressions import numpy_functions, parse_expression
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
-from parsel_core.layout import group_instances
+from parsel_core.layout import RestLayout, group_instances, rest_layout
 from parsel_core.ops import EditOp, GroupOp, op_from_dict, op_to_dict
 
 PROGRAM_FORMAT = "parsel.program"
@@ -63,6 +63,9 @@ class Parameter:
 
     def check(self, value: Any) -> None:
         """Raise :class:`ParameterRangeError` if any value lies outside [lo, hi]."""
+        if type(value) is float:  # (a slider step: no array made)
+            if math.isfinite(value) and self.lo - 1e-12 <= value <= self.hi + 1e-12:
+                return
         values = np.asarray(value, dtype=float)
         if not np.all(np.isfinite(values)):
             raise ParameterRangeError(f"parameter {self.name!r}: value {value!r} is not a finite number")
@@ -602,27 +605,47 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
     return total
 
 
+def rest_layouts(program: Program, shape: ShapeGraph) -> dict[str, RestLayout]:
+    """The :func:`~parsel_core.layout.rest_layout` of every group a group op of ``program``
+    lays out, in the mode of its first group op."""
+    rest = shape.rest_corners()
+    first: dict[str, GroupOp] = {}
+    for op in program.ops:
+        if isinstance(op, GroupOp):
+            first.setdefault(op.operand, op)
+    return {group_id: rest_layout(shape.relations[group_id], rest[group_id],
+                                  [rest[m] for m in shape.relations[group_id].members], op.mode == "top_down")
+            for group_id, op in first.items()}
+
+
 def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray], amounts: Sequence[Any],
-             batch: tuple[int, ...]) -> tuple[dict[str, np.ndarray], frozenset[str]]:
+             batch: tuple[int, ...], layouts: Mapping[str, RestLayout] | None = None
+             ) -> tuple[dict[str, np.ndarray], frozenset[str]]:
     """Apply group layouts: member j takes instance j's corners; members past the new count
-    are *removed* (their corners become NaN). Returns scalar-evaluation instances too."""
+    are *removed* (their corners become NaN). Returns scalar-evaluation instances too.
+    ``layouts``: :func:`rest_layouts` of the program, when already made."""
     per_group: dict[str, list[tuple[GroupOp, Any]]] = {}
     for op, amount in zip(program.ops, amounts):
         if isinstance(op, GroupOp):
             per_group.setdefault(op.operand, []).append((op, amount))
     instances: dict[str, np.ndarray] = {}
     removed: set[str] = set()
+    if not per_group:
+        return instances, frozenset(removed)
     rest = shape.rest_corners()
+    layouts = layouts if layouts is not None else rest_layouts(program, shape)
     for group_id, ops in per_group.items():
         relation = shape.relations[group_id]
         members = relation.members
         for m in members:
-            corners[m] = np.array(np.broadcast_to(corners[m], batch + (8, 3)), dtype=float)
+            c = corners[m]
+            corners[m] = np.array(c if np.shape(c) == batch + (8, 3) else np.broadcast_to(c, batch + (8, 3)),
+                                  dtype=float)
         for index in np.ndindex(*batch) if batch else [()]:
             sample_ops = [(op, float(np.asarray(amount)[index] if batch else amount)) for op, amount in ops]
             laid = group_instances(relation, rest[group_id], [rest[m] for m in members],
                                    np.asarray(corners[group_id])[index],
-                                   [corners[m][index] for m in members], sample_ops)
+                                   [corners[m][index] for m in members], sample_ops, layouts[group_id])
             for j, m in enumerate(members):
                 if j < len(laid):
                     corners[m][index] = laid[j]
@@ -719,6 +742,7 @@ class CompiledProgram:
         exprs = [e for pid in self.edited for e in symbolic[pid].ravel()]
         group_amounts = [backend.parse(op.amount) for op in program.ops if isinstance(op, GroupOp)]
         self._group_ops = [op for op in program.ops if isinstance(op, GroupOp)]
+        self._layouts = rest_layouts(program, shape)
         self._function = backend.compile(program.parameter_names, exprs + group_amounts) if exprs or group_amounts \
             else None
         self._n_corner_values = len(exprs)
@@ -726,7 +750,9 @@ class CompiledProgram:
     def __call__(self, values: Mapping[str, Any] | None = None) -> Evaluation:
         values = self.program.values(values)
         batch = np.broadcast_shapes(*(np.shape(v) for v in values.values())) if values else ()
-        corners: dict[str, np.ndarray] = {pid: np.broadcast_to(c, batch + (8, 3)) for pid, c in self.rest.items()}
+        # (the rest corners are read-only arrays: one slider position takes them as they are)
+        corners: dict[str, np.ndarray] = dict(self.rest) if not batch else \
+            {pid: np.broadcast_to(c, batch + (8, 3)) for pid, c in self.rest.items()}
         instances: dict[str, np.ndarray] = {}
         removed: frozenset[str] = frozenset()
         if self._function is not None:
@@ -742,7 +768,7 @@ class CompiledProgram:
                 for i, op in enumerate(self.program.ops):
                     if isinstance(op, GroupOp):
                         amounts[i] = next(group_values)
-                instances, removed = _lay_out(self.program, self.shape, corners, amounts, batch)
+                instances, removed = _lay_out(self.program, self.shape, corners, amounts, batch, self._layouts)
         return Evaluation(dict(corners), instances, removed)
 
 

@@ -146,3 +146,77 @@ def test_members_a_layout_leaves_in_place_keep_their_contacts():
     program = Program.from_text('param x in [0, 1]\nchange_count(row, amount=2*x, mode="bottom_up")')
     states = check_program(shape, program).states()
     assert all(states[f"on_rail_board{j}"] == "kept" for j in range(3)), states
+
+
+LAYOUT_PROGRAMS = [
+    'scale_1d(slat_row, origin=(0, 0, 0), dir=(1, 0, 0), amount=x)\n'
+    'change_count(slat_row, amount=4 * x, mode="top_down")',
+    'scale_1d(slat_row, origin=(0, 0, 0), dir=(1, 0, 0), amount=x)\n'
+    'change_delta(slat_row, amount=x - 0.5, mode="top_down")',
+    'change_count(slat_row, amount=3 * x, mode="bottom_up")',
+    'change_delta(slat_row, amount=x, mode="bottom_up")',
+]
+
+
+@pytest.mark.parametrize("text", LAYOUT_PROGRAMS)
+def test_a_layout_from_the_rest_layout_made_once_is_the_same_to_the_last_bit(text, parsel_shape):
+    """Evaluations lay a group out with its rest layout made once (every sample of a batch,
+    every slider step): the instances are those made from scratch, bit for bit."""
+    from parsel_core.layout import group_instances, rest_layout
+    from parsel_core.ops import GroupOp
+    from parsel_core.program import op_amount
+
+    program = Program.from_text("param x in [0, 1]\n" + text)
+    rest = parsel_shape.rest_corners()
+    relation = parsel_shape.relations["slat_row"]
+    members = [rest[m] for m in relation.members]
+    made = rest_layout(relation, rest["slat_row"], members, "top_down" in text)
+    assert (made.anchor_weights is not None) == ("top_down" in text)
+    for array in (made.anchor_weights, made.rest_step, made.deviations):
+        assert array is None or not array.flags.writeable
+    for x in np.linspace(0.0, 1.0, 7):
+        parent = evaluate(program, parsel_shape, {"x": x}).parts["slat_row"]  # (no op moves a member)
+        ops = [(op, float(op_amount(op, {"x": x}))) for op in program.ops if isinstance(op, GroupOp)]
+        args = (relation, rest["slat_row"], members, parent, members, ops)
+        assert np.array_equal(group_instances(*args, made), group_instances(*args))
+        assert np.array_equal(evaluate(program, parsel_shape, {"x": x}).instances["slat_row"], group_instances(*args))
+
+
+def test_a_ring_laid_out_top_down_from_its_rest_layout_is_the_same_to_the_last_bit():
+    from parsel_core.layout import group_instances, rest_layout
+
+    shape = spokes()
+    rest = shape.rest_corners()
+    relation = shape.relations["ring"]
+    members = [rest[m] for m in relation.members]
+    made = rest_layout(relation, rest["ring"], members, True)
+    assert made.anchor_weights.shape == (1, 8) and made.deviations is None
+    program = Program.from_text('param x in [0, 1]\nscale_3d(ring, origin=(0, 0, 0), amount=x)\n'
+                                'change_count(ring, amount=-2, mode="top_down")')
+    for x in (0.0, 0.3, 1.0):
+        parent = evaluate(program, shape, {"x": x}).parts["ring"]
+        args = (relation, rest["ring"], members, parent, members, [(program.ops[1], -2.0)])
+        assert np.array_equal(group_instances(*args, made), group_instances(*args))
+        assert np.array_equal(evaluate(program, shape, {"x": x}).instances["ring"], group_instances(*args))
+
+
+@pytest.mark.parametrize("text", LAYOUT_PROGRAMS)
+def test_a_compiled_program_lays_out_every_slider_step_afresh(text, parsel_shape, parsel_backend):
+    """A compiled program keeps its groups' rest layouts between calls and nothing else:
+    each step's instances are those of a program compiled for that step alone, and the
+    corners it returns are read-only (the rest shape's own arrays stay untouched)."""
+    program = Program.from_text("param x in [0, 1]\n" + text)
+    compiled = compile_program(program, parsel_shape, parsel_backend)
+    for x in (0.9, 0.1, 0.55, 0.0, 1.0, 0.1):
+        step = compiled({"x": x})
+        fresh = compile_program(program, parsel_shape, parsel_backend)({"x": x})
+        assert np.array_equal(step.instances["slat_row"], fresh.instances["slat_row"])
+        assert step.removed == fresh.removed
+        for pid, corners in step.parts.items():
+            assert np.array_equal(corners, fresh.parts[pid], equal_nan=True)
+            assert not corners.flags.writeable or pid in parsel_shape.relations["slat_row"].members
+    assert all(not c.flags.writeable for c in parsel_shape.rest_corners().values())
+    batch = compiled({"x": np.array([0.1, 0.9])})
+    for j, x in enumerate((0.1, 0.9)):
+        for pid, corners in batch.parts.items():
+            assert np.array_equal(corners[j], compiled({"x": x}).parts[pid], equal_nan=True)

@@ -78,6 +78,27 @@ def test_parameters_are_range_checked(parsel_shape):
         evaluate(program, parsel_shape, {"z": 0.1})
 
 
+@pytest.mark.parametrize("value, ok", [
+    (0.25, True), (0.0, True), (0.5, True), (0.5 + 1e-13, True), (-1e-13, True),
+    (0.5 + 1e-9, False), (-1e-9, False), (float("nan"), False), (float("inf"), False), (-float("inf"), False),
+])
+def test_one_value_is_checked_as_a_batch_of_it_is(value, ok):
+    """A slider step's float takes a shortcut past the array checks; it accepts and refuses
+    what the array checks do, with the same message."""
+    from parsel_core.program import Parameter
+
+    parameter = Parameter("x", 0.0, 0.5)
+    for given in (value, np.float64(value), np.array([value, 0.1])):
+        if ok:
+            parameter.check(given)
+        else:
+            with pytest.raises(ParameterRangeError) as error:
+                parameter.check(given)
+            assert "parameter 'x'" in str(error.value)
+            if np.isfinite(value):
+                assert f"value {value:g} is outside its range [0, 0.5]" in str(error.value)
+
+
 def test_unknown_part_is_named(parsel_shape):
     program = Program.from_text("translate(chair_leg, dir=(1, 0, 0), amount=x)")
     with pytest.raises(UnknownPartError, match="op 0 \\(translate\\).*'chair_leg'"):

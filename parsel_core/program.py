@@ -605,17 +605,21 @@ def _apply_part_ops(program: Program, shape: ShapeGraph, corners: dict[str, Any]
     return total
 
 
+def _group_rest_layout(shape: ShapeGraph, rest: Mapping[str, np.ndarray], group_id: str, first: GroupOp
+                       ) -> RestLayout:
+    """The :func:`~parsel_core.layout.rest_layout` of ``group_id``, in the mode of its first group op."""
+    relation = shape.relations[group_id]
+    return rest_layout(relation, rest[group_id], [rest[m] for m in relation.members], first.mode == "top_down")
+
+
 def rest_layouts(program: Program, shape: ShapeGraph) -> dict[str, RestLayout]:
-    """The :func:`~parsel_core.layout.rest_layout` of every group a group op of ``program``
-    lays out, in the mode of its first group op."""
+    """The rest layout of every group a group op of ``program`` lays out."""
     rest = shape.rest_corners()
     first: dict[str, GroupOp] = {}
     for op in program.ops:
         if isinstance(op, GroupOp):
             first.setdefault(op.operand, op)
-    return {group_id: rest_layout(shape.relations[group_id], rest[group_id],
-                                  [rest[m] for m in shape.relations[group_id].members], op.mode == "top_down")
-            for group_id, op in first.items()}
+    return {group_id: _group_rest_layout(shape, rest, group_id, op) for group_id, op in first.items()}
 
 
 def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray], amounts: Sequence[Any],
@@ -633,19 +637,19 @@ def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray]
     if not per_group:
         return instances, frozenset(removed)
     rest = shape.rest_corners()
-    layouts = layouts if layouts is not None else rest_layouts(program, shape)
     for group_id, ops in per_group.items():
         relation = shape.relations[group_id]
         members = relation.members
+        rest_members = [rest[m] for m in members]
+        layout = layouts[group_id] if layouts is not None else _group_rest_layout(shape, rest, group_id, ops[0][0])
         for m in members:
             c = corners[m]
             corners[m] = np.array(c if np.shape(c) == batch + (8, 3) else np.broadcast_to(c, batch + (8, 3)),
                                   dtype=float)
         for index in np.ndindex(*batch) if batch else [()]:
             sample_ops = [(op, float(np.asarray(amount)[index] if batch else amount)) for op, amount in ops]
-            laid = group_instances(relation, rest[group_id], [rest[m] for m in members],
-                                   np.asarray(corners[group_id])[index],
-                                   [corners[m][index] for m in members], sample_ops, layouts[group_id])
+            laid = group_instances(relation, rest[group_id], rest_members, np.asarray(corners[group_id])[index],
+                                   [corners[m][index] for m in members], sample_ops, layout)
             for j, m in enumerate(members):
                 if j < len(laid):
                     corners[m][index] = laid[j]

@@ -35,13 +35,17 @@ def _round_half_up(value: float) -> int:
     return int(math.floor(value + 0.5))
 
 
-def _checked_count(relation: Relation, count: float) -> int:
-    """The instance count, refused (before any array is made) when over the ``max_instances`` limit."""
-    from parsel_core.config import check_limit
+def _checked_count(relation: Relation, count: float, max_count: float | None = None) -> int:
+    """The instance count, refused (before any array is made) when over the ``max_instances``
+    limit (``max_count``: its value, when the caller has read it once for many samples)."""
+    from parsel_core.config import check_limit, over_limit
 
     if not math.isfinite(count):
         raise ParselError(f"group {relation.id!r}: the edit asks for {count!r} instances")
-    check_limit("max_instances", f"group {relation.id!r}: instances", count)
+    if max_count is None:
+        check_limit("max_instances", f"group {relation.id!r}: instances", count)
+    elif not count <= max_count:
+        raise over_limit("max_instances", f"group {relation.id!r}: instances", count)
     return int(count)
 
 
@@ -103,10 +107,12 @@ def rest_layout(relation: Relation, rest_parent: np.ndarray, rest_members: Seque
 
 def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
                        parent: np.ndarray, members: Sequence[np.ndarray],
-                       ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None) -> np.ndarray:
+                       ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None,
+                       max_count: float | None = None) -> np.ndarray:
     """Instances (n, 8, 3) of a translation group after its group ops; instance j < k carries
     member j's own deviation from the perfect row (:func:`translation_deviations`).
-    ``rest``: the group's :func:`rest_layout`, when already made."""
+    ``rest``: the group's :func:`rest_layout`, when already made; ``max_count``: the
+    ``max_instances`` limit, when already read (:func:`group_instances`)."""
     top_down = ops[0][0].mode == "top_down"
     rest = rest or rest_layout(relation, rest_parent, rest_members, top_down)
     k = len(rest_members)
@@ -136,7 +142,7 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
                 count = max(1, k + _round_half_up(amount))
             elif isinstance(op, ChangeDelta):
                 step = step * (1.0 + amount)
-    count = _checked_count(relation, count)
+    count = _checked_count(relation, count, max_count)
     offsets = start + np.arange(count)[:, None] * step
     instances = template[None] + offsets[:, None, :]
     kept = min(count, k)
@@ -146,9 +152,9 @@ def translation_layout(relation: TranslationSymmetry, rest_parent: np.ndarray, r
 
 def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent: np.ndarray,
                     members: Sequence[np.ndarray], ops: Sequence[tuple[GroupOp, float]],
-                    rest: RestLayout | None = None) -> np.ndarray:
-    """Instances (n, 8, 3) of a rotation group after its group ops (``rest``: as in
-    :func:`translation_layout`)."""
+                    rest: RestLayout | None = None, max_count: float | None = None) -> np.ndarray:
+    """Instances (n, 8, 3) of a rotation group after its group ops (``rest`` and
+    ``max_count``: as in :func:`translation_layout`)."""
     k = len(relation.members)
     angle = relation.angle
     closed = relation.closed
@@ -171,18 +177,21 @@ def rotation_layout(relation: RotationSymmetry, rest_parent: np.ndarray, parent:
             if top_down and abs(angle) > 1e-12:
                 full = 2 * math.pi if closed else abs(span)
                 count = max(1, _fitting(full, abs(angle)) + (0 if closed else 1))
-    count = _checked_count(relation, count)
+    count = _checked_count(relation, count, max_count)
     template = members[0] - center
     return np.stack([center + template @ rotation_matrix(relation.axis, j * angle).T for j in range(count)])
 
 
 def group_instances(relation: Relation, rest_parent: np.ndarray, rest_members: Sequence[np.ndarray],
                     parent: np.ndarray, members: Sequence[np.ndarray],
-                    ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None) -> np.ndarray:
+                    ops: Sequence[tuple[GroupOp, float]], rest: RestLayout | None = None,
+                    max_count: float | None = None) -> np.ndarray:
     """Dispatch on the group kind; ``ops`` are the group's ops with numeric amounts, in order;
-    ``rest`` the group's :func:`rest_layout`, when already made."""
+    ``rest`` the group's :func:`rest_layout`, when already made; ``max_count`` the
+    ``max_instances`` limit, when already read (a caller laying out many samples reads
+    it once: with a parsel.toml, each read parses the file)."""
     if isinstance(relation, TranslationSymmetry):
-        return translation_layout(relation, rest_parent, rest_members, parent, members, ops, rest)
+        return translation_layout(relation, rest_parent, rest_members, parent, members, ops, rest, max_count)
     if isinstance(relation, RotationSymmetry):
-        return rotation_layout(relation, rest_parent, parent, members, ops, rest)
+        return rotation_layout(relation, rest_parent, parent, members, ops, rest, max_count)
     raise TypeError(f"relation {relation.id!r} of kind {relation.kind!r} is not a group")

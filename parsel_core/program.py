@@ -623,11 +623,14 @@ def rest_layouts(program: Program, shape: ShapeGraph) -> dict[str, RestLayout]:
 
 
 def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray], amounts: Sequence[Any],
-             batch: tuple[int, ...], layouts: Mapping[str, RestLayout] | None = None
-             ) -> tuple[dict[str, np.ndarray], frozenset[str]]:
+             batch: tuple[int, ...], layouts: Mapping[str, RestLayout] | None = None,
+             max_count: float | None = None) -> tuple[dict[str, np.ndarray], frozenset[str]]:
     """Apply group layouts: member j takes instance j's corners; members past the new count
     are *removed* (their corners become NaN). Returns scalar-evaluation instances too.
-    ``layouts``: :func:`rest_layouts` of the program, when already made."""
+    ``layouts``: :func:`rest_layouts` of the program, when already made; ``max_count``: the
+    ``max_instances`` limit, when already read (else read here, once for every sample)."""
+    from parsel_core.config import limit
+
     per_group: dict[str, list[tuple[GroupOp, Any]]] = {}
     for op, amount in zip(program.ops, amounts):
         if isinstance(op, GroupOp):
@@ -637,6 +640,8 @@ def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray]
     if not per_group:
         return instances, frozenset(removed)
     rest = shape.rest_corners()
+    if max_count is None:
+        max_count = limit("max_instances")
     for group_id, ops in per_group.items():
         relation = shape.relations[group_id]
         members = relation.members
@@ -649,7 +654,7 @@ def _lay_out(program: Program, shape: ShapeGraph, corners: dict[str, np.ndarray]
         for index in np.ndindex(*batch) if batch else [()]:
             sample_ops = [(op, float(np.asarray(amount)[index] if batch else amount)) for op, amount in ops]
             laid = group_instances(relation, rest[group_id], rest_members, np.asarray(corners[group_id])[index],
-                                   [corners[m][index] for m in members], sample_ops, layout)
+                                   [corners[m][index] for m in members], sample_ops, layout, max_count)
             for j, m in enumerate(members):
                 if j < len(laid):
                     corners[m][index] = laid[j]
@@ -737,6 +742,8 @@ class CompiledProgram:
     """
 
     def __init__(self, program: Program, shape: ShapeGraph, backend: CASBackend) -> None:
+        from parsel_core.config import limit
+
         self.program = program
         self.shape = shape
         self.backend = backend
@@ -747,6 +754,9 @@ class CompiledProgram:
         group_amounts = [backend.parse(op.amount) for op in program.ops if isinstance(op, GroupOp)]
         self._group_ops = [op for op in program.ops if isinstance(op, GroupOp)]
         self._layouts = rest_layouts(program, shape)
+        #: The ``max_instances`` limit as it was at compile time (with a parsel.toml, each
+        #: read parses the file: too slow for a slider step).
+        self._max_instances = limit("max_instances") if self._group_ops else None
         self._function = backend.compile(program.parameter_names, exprs + group_amounts) if exprs or group_amounts \
             else None
         self._n_corner_values = len(exprs)
@@ -772,7 +782,8 @@ class CompiledProgram:
                 for i, op in enumerate(self.program.ops):
                     if isinstance(op, GroupOp):
                         amounts[i] = next(group_values)
-                instances, removed = _lay_out(self.program, self.shape, corners, amounts, batch, self._layouts)
+                instances, removed = _lay_out(self.program, self.shape, corners, amounts, batch, self._layouts,
+                                              self._max_instances)
         return Evaluation(dict(corners), instances, removed)
 
 

@@ -130,6 +130,43 @@ def test_instance_counts_are_capped_before_any_array_is_made(monkeypatch):
     assert len(evaluate(program, shape, {"x": 1.0}).instances["translation_0"]) > 1000
 
 
+def test_a_batch_of_samples_reads_the_instance_limit_once(tmp_path, monkeypatch):
+    """Every sample of a re-laid-out group is checked against ``max_instances``, read from
+    parsel.toml once per evaluation (a slider step or a solver's samples), not per sample."""
+    import numpy as np
+
+    from parsel_core import config
+    from parsel_core.loading import load_shape
+    from parsel_core.program import evaluate
+
+    program = Program.from_text("change_count(translation_0, amount=100*x, mode='top_down')")
+    shape = load_shape("shelf")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "parsel.toml").write_text("[parsel]\nmax_instances = 50\n")
+    reads = []
+    original = config.load_settings
+    monkeypatch.setattr(config, "load_settings", lambda: reads.append(1) or original())
+    xs = np.linspace(0.0, 0.4, 41)
+    laid = evaluate(program, shape, {"x": xs}).parts
+    assert len(reads) == 1
+    assert not np.isnan(laid[shape.relations["translation_0"].members[0]]).any()
+    reads.clear()
+    with pytest.raises(ParselError, match="instances: .* over the limit max_instances = 50"):
+        evaluate(program, shape, {"x": np.linspace(0.0, 1.0, 41)})  # 100 instances at x = 1
+    assert len(reads) == 2  # the check, then the message naming the limit
+    # A compiled program (a slider) reads it when compiled, not at each step.
+    from parsel_core.plugins import get_cas_backend
+    from parsel_core.program import compile_program
+
+    slider = compile_program(program, shape, get_cas_backend("symengine"))
+    reads.clear()
+    for x in np.linspace(0.0, 0.4, 9):
+        slider({"x": x})
+    assert reads == []
+    with pytest.raises(ParselError, match="instances: .* over the limit max_instances = 50"):
+        slider({"x": 1.0})
+
+
 def test_check_samples_are_bounded():
     from parsel_core.loading import load_shape
     from parsel_core.report import check_program

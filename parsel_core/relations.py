@@ -222,13 +222,18 @@ class RotationSymmetry(Relation):
     def _perms(self) -> tuple[np.ndarray, ...]:
         return _member_permutations(self.correspondence, len(self.members))
 
+    @cached_property
+    def _turns(self) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """The centre and each instance's rotation ``R^j`` (j >= 1), made once."""
+        return _constant(self.center), tuple(_constant(rotation_matrix(self.axis, j * self.angle))
+                                            for j in range(1, len(self.members)))
+
     def constraint(self, corners):
-        o = _vec(self.center)
+        o, turns = self._turns
         h0 = corners[self.members[0]]
         parts = []
-        for j in range(1, len(self.members)):
+        for j, r in enumerate(turns, start=1):
             hj = corners[self.members[j]][..., self._perms[j], :]
-            r = rotation_matrix(self.axis, j * self.angle)
             expected = o + (h0 - o) @ r.T if h0.dtype != object else o + np.dot(h0 - o, r.T)
             parts.append(_flat(hj - expected))
         return _concatenate(parts)

@@ -8,7 +8,9 @@
 
 from __future__ import annotations
 
+import copy
 import difflib
+import functools
 import math
 import os
 import tomllib
@@ -83,7 +85,7 @@ def load_settings() -> dict[str, Any]:
         return {}
     path = config_path()
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        data = _parsed(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ParselError(f"{path}: cannot read configuration: {exc}") from None
     section = data.get("parsel", {})
@@ -91,7 +93,16 @@ def load_settings() -> dict[str, Any]:
         raise ParselError(f"{path}: [parsel] must be a table")
     _warn_outside(path, data)
     _warn_unknown(path, section)
-    return section
+    return {key: copy.deepcopy(value) if isinstance(value, (dict, list)) else value for key, value in section.items()}
+
+
+@functools.lru_cache(maxsize=8)
+def _parsed(text: str) -> dict[str, Any]:
+    """The TOML document ``text``, parsed once: limits are read where the numbers they bound
+    are (each number of a ShapeAssembly file, each amount parsed), and parsing takes about
+    ten times as long as reading the file again. Keyed by the text, so an edited file is
+    parsed anew. Callers get copies (:func:`load_settings`)."""
+    return tomllib.loads(text)
 
 
 def backend_source() -> str:

@@ -105,3 +105,24 @@ def test_a_misspelled_key_reaches_the_command_line_as_one_line(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stderr == ("parsel: warning: parsel.toml: 'relation_tolerence' is outside the [parsel] table and is "
                            "ignored; did you mean 'relation_tolerance' in the [parsel] table?\n")
+
+
+def test_parsel_toml_is_parsed_once_until_it_changes(tmp_path, monkeypatch):
+    """Limits are read where the numbers they bound are, so reading settings must be cheap;
+    an edited file (even one of the same size, within the same clock tick) is read anew."""
+    import tomllib
+
+    path = tmp_path / "parsel.toml"
+    path.write_text(f"# {tmp_path}\n[parsel]\nmax_ops = 3\n")
+    monkeypatch.setenv("PARSEL_CONFIG", str(path))
+    parses = []
+    original = tomllib.loads
+    monkeypatch.setattr(tomllib, "loads", lambda text: parses.append(text) or original(text))
+    assert [config.limit("max_ops") for _ in range(5)] == [3] * 5
+    assert len(parses) == 1
+    path.write_text(f"# {tmp_path}\n[parsel]\nmax_ops = 4\n")
+    assert config.limit("max_ops") == 4
+    settings = config.load_settings()
+    settings["max_ops"] = 9  # a caller's copy
+    assert config.limit("max_ops") == 4
+    assert len(parses) == 2

@@ -182,6 +182,8 @@ class _LineCtx:
 
     source: str
     line: int
+    #: The ``max_magnitude`` limit, read once per program (``None``: read when needed).
+    max_magnitude: float | None = None
 
     def error(self, message: str) -> ShapeAssemblyError:
         return ShapeAssemblyError(message, self.source, self.line)
@@ -196,7 +198,7 @@ def _number(ctx: _LineCtx, token: str, what: str) -> float:
     value = float(token)
     if not math.isfinite(value):  # a literal too large for a double, 1e400
         raise ctx.error(f"{what}: {token[:40]} is too large")
-    bound = limit("max_magnitude")
+    bound = limit("max_magnitude") if ctx.max_magnitude is None else ctx.max_magnitude
     if abs(value) > bound:
         raise ctx.error(f"{what}: {token[:40]} is over the limit max_magnitude = {bound:g} "
                         "(raise it with PARSEL_MAX_MAGNITUDE)")
@@ -364,11 +366,14 @@ def _check_hierarchy(ast: ProgramAST) -> None:
 def parse_program(text: str, source: str = "<string>") -> ProgramAST:
     """Parse program text into a :class:`ProgramAST`, raising
     :class:`ShapeAssemblyError` (with ``source:line``) on malformed input."""
+    from parsel_core.config import limit
+
     blocks: dict[str, Block] = {}
     order: list[str] = []
     current: tuple[str, int, list[Statement]] | None = None
+    bound = limit("max_magnitude")  # (once: a program has thousands of numbers)
     for lineno, raw in enumerate(text.splitlines(), start=1):
-        ctx = _LineCtx(source, lineno)
+        ctx = _LineCtx(source, lineno, bound)
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue

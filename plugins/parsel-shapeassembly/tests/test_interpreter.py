@@ -422,6 +422,24 @@ def test_malformed_programs_name_the_line(text: str, line: int, fragment: str) -
     assert info.value.line == line
 
 
+def test_numbers_over_the_magnitude_limit_name_the_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The limit is read once per program and holds for every number in it."""
+    from parsel_core import config
+
+    reads = []
+    original = config.limit
+    monkeypatch.setattr(config, "limit", lambda name: reads.append(name) or original(name))
+    monkeypatch.setenv("PARSEL_MAX_MAGNITUDE", "50")
+    text = GOOD_HEADER + "\tcube1 = Cuboid(0.1, 0.1, 0.1, True)\n\tcube2 = Cuboid(0.1, 60, 0.1, True)\n}\n"
+    with pytest.raises(ShapeAssemblyError) as info:
+        parse_program(text, "chair/big.txt")
+    assert str(info.value) == ("chair/big.txt:5: Cuboid() dimension 2: 60 is over the limit max_magnitude = 50 "
+                               "(raise it with PARSEL_MAX_MAGNITUDE)")
+    assert reads == ["max_magnitude"]
+    monkeypatch.setenv("PARSEL_MAX_MAGNITUDE", "100")
+    assert len(parse_program(text, "chair/big.txt").blocks["Program_0"].statements) == 4
+
+
 def test_missing_program_block_without_any_block() -> None:
     with pytest.raises(ShapeAssemblyError, match="missing Program block"):
         execute("", "empty.txt")

@@ -175,14 +175,17 @@ def limit(name: str) -> float:
     return value
 
 
-def over_limit(name: str, what: str, value: float) -> ParselError:
-    """The one-line error for ``what`` exceeding limit ``name``, saying how to raise it."""
-    bound = limit(name)
+def over_limit(name: str, what: str, value: float, bound: float | None = None) -> ParselError:
+    """The one-line error for ``what`` exceeding limit ``name``, saying how to raise it
+    (``bound``: the limit's value as it was checked; read here when not given)."""
+    bound = limit(name) if bound is None else bound
     return ParselError(f"{what}: {value:g} is over the limit {name} = {bound:g} (raise it with "
                        f"PARSEL_{name.upper()} or [parsel] {name} in parsel.toml)")
 
 
-def check_limit(name: str, what: str, value: float) -> None:
-    """Raise the one-line error when ``value`` exceeds limit ``name``."""
-    if not value <= limit(name):  # also refuses NaN
-        raise over_limit(name, what, value)
+def check_limit(name: str, what: str, value: float, bound: float | None = None) -> None:
+    """Raise the one-line error when ``value`` exceeds limit ``name`` (``bound``: its value,
+    when the caller has read it once for many values; read here when not given)."""
+    bound = limit(name) if bound is None else bound
+    if not value <= bound:  # also refuses NaN
+        raise over_limit(name, what, value, bound)

@@ -38,14 +38,11 @@ def _round_half_up(value: float) -> int:
 def _checked_count(relation: Relation, count: float, max_count: float | None = None) -> int:
     """The instance count, refused (before any array is made) when over the ``max_instances``
     limit (``max_count``: its value, when the caller has read it once for many samples)."""
-    from parsel_core.config import check_limit, over_limit
+    from parsel_core.config import check_limit
 
     if not math.isfinite(count):
         raise ParselError(f"group {relation.id!r}: the edit asks for {count!r} instances")
-    if max_count is None:
-        check_limit("max_instances", f"group {relation.id!r}: instances", count)
-    elif not count <= max_count:
-        raise over_limit("max_instances", f"group {relation.id!r}: instances", count)
+    check_limit("max_instances", f"group {relation.id!r}: instances", count, max_count)
     return int(count)
 
 

@@ -15,6 +15,7 @@ parsed safely by :mod:`parsel_core.expressions`.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -30,6 +31,14 @@ Vector = tuple[float, float, float]
 
 def as_vector(value: Any, field_name: str, *, unit: bool = False) -> Vector:
     """Three finite floats; unit vectors are normalised unless already of length 1."""
+    if type(value) is tuple and len(value) == 3 and all(type(v) is float and math.isfinite(v) for v in value):
+        # The common case (edit propagation builds tens of thousands of ops) without numpy:
+        # the same tuple comes back whenever the general path would return it unchanged.
+        # A direction is kept when its squared length is within 1e-14 of 1, far inside the
+        # 1e-12 below, whatever the rounding of the norm; anything else takes that path.
+        x, y, z = value
+        if not unit or abs(x * x + y * y + z * z - 1.0) < 1e-14:
+            return value
     try:
         vector = np.asarray(value, dtype=float).reshape(3)
     except (TypeError, ValueError, OverflowError):  # OverflowError: an integer beyond any float

@@ -99,7 +99,7 @@ class Relation:
             return dataclasses.replace(self, rest_offset=())
         return dataclasses.replace(self, rest_offset=tuple(float(v) for v in offset))
 
-    @property
+    @cached_property
     def rest_error(self) -> float:
         """``||C||_inf`` on the rest shape: how far from exact the relation was detected."""
         return float(np.abs(np.asarray(self.rest_offset)).max()) if self.rest_offset else 0.0

@@ -159,3 +159,28 @@ def test_mirrored_op_is_the_reflected_edit():
         for x in (0.1, 0.7):
             corners = evaluate(program, shape, {"x": x}).parts
             assert relation.error(corners) < 1e-12, op.name
+
+
+def test_vector_fields_of_float_tuples_are_read_as_any_other_sequence():
+    """A tuple of three floats takes a path without numpy; it must give what a list gives:
+    unit directions normalised unless already of length 1, points as they are."""
+    from parsel_core.errors import ProgramFormatError
+    from parsel_core.ops import as_vector
+
+    rng = np.random.default_rng(7)
+    directions = [tuple(float(v) for v in d) for d in rng.normal(size=(200, 3))]
+    directions += [tuple(float(v) for v in d / np.linalg.norm(d)) for d in rng.normal(size=(200, 3))]
+    directions += [(0.0, 1.0, 0.0), (-0.0, 0.0, -1.0), (0.6, 0.8, 0.0), (0.0, 1.0 + 2e-13, 0.0),
+                   (0.0, 1.0 + 1e-15, 0.0), (0.0, 1.0 + 4e-12, 0.0), (3.0, 4.0, 0.0)]
+    for d in directions:
+        for unit in (False, True):
+            assert as_vector(d, "dir", unit=unit) == as_vector(list(d), "dir", unit=unit)
+    assert as_vector((0.0, 2.0, 0.0), "dir", unit=True) == (0.0, 1.0, 0.0)
+    assert as_vector((0.0, 1.0 + 4e-12, 0.0), "dir", unit=True) == (0.0, 1.0, 0.0)
+    assert as_vector((0.0, 1.0 + 2e-13, 0.0), "dir", unit=True) == (0.0, 1.0 + 2e-13, 0.0)
+    assert Translate("box", dir=(3.0, 4.0, 0.0)).dir == pytest.approx((0.6, 0.8, 0.0), abs=1e-15)
+    for bad in ((0.0, float("nan"), 1.0), (float("inf"), 0.0, 0.0)):
+        with pytest.raises(ProgramFormatError, match="must be finite"):
+            as_vector(bad, "dir", unit=True)
+    with pytest.raises(ProgramFormatError, match="non-zero direction"):
+        as_vector((0.0, 0.0, 0.0), "dir", unit=True)

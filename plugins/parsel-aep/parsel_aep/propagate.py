@@ -1195,7 +1195,7 @@ class Propagation:
         the part spans (``spanning``), rigid edits, other copies of an edited neighbour's edit
         (``preferred``), then most symmetry planes, least ARAP energy, simplest op, candidate
         order."""
-        pool = [s for s in pool if np.all(np.isfinite(s.f))]
+        pool = [s for s in pool if np.isfinite(s.f).all()]
         if not pool:
             return []
         energy, planes = self._distortion(pool, rest)

@@ -288,8 +288,9 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
     def new(ops: Sequence) -> list:
         return [op for op in ops if known.get(id(op), (None,))[0] is not op]
 
-    affine = [(i, op) for i, op in enumerate(candidates) if not isinstance(op, (Rotate, Compound))]
-    rotations = [(i, op) for i, op in enumerate(candidates) if isinstance(op, Rotate)]
+    affine, rotations, listed = [], [], []
+    for i, op in enumerate(candidates):  # (one pass: a search screens hundreds of candidates)
+        (rotations if isinstance(op, Rotate) else listed if isinstance(op, Compound) else affine).append((i, op))
     k = r0.shape[-1]
     fresh = new([op for _, op in affine])
     slope = None
@@ -315,7 +316,6 @@ def _system(candidates: Sequence[EditOp], moving: Mapping[str, np.ndarray], othe
         matrix = np.array([known[id(op)][1][1] for _, op in rotations])
     elif not rotations:
         offset, matrix = np.zeros((0, k)), np.zeros((0, k, 2))
-    listed = [(i, c) for i, c in enumerate(candidates) if isinstance(c, Compound)]
     fresh = new([c for _, c in listed])
     if fresh:  # every new compound's basis in one evaluation
         rows = residual_at([op for c in fresh for op in c.basis], 1.0) - base
@@ -430,7 +430,7 @@ def _compound_blocks(system: _System, columns, allowed: np.ndarray) -> list[_Blo
     blocks = []
     for j, f in enumerate(amounts):
         errors = every[j:j + 1]
-        if np.all(np.isfinite(errors)):
+        if np.isfinite(errors).all():
             blocks.append(_Block("compound", np.array([j]), f[None], errors, ~(errors < allowed)))
     return blocks
 
@@ -504,7 +504,7 @@ class ScreenTable:
         if made is None:
             system, block, n = self.system, self.blocks[self.block[i]], int(self.row[i])
             source = int(block.sources[n])
-            broken = tuple(system.ids[k] for k in np.flatnonzero(block.broken[n]))
+            broken = tuple(system.ids[k] for k in block.broken[n].nonzero()[0])
             if block.kind == "affine":
                 index, op = system.affine[source]
                 made = Screened(op, index, block.f[n], broken, "affine", system.slope[source], system.r0,

@@ -193,12 +193,14 @@ def _number(ctx: _LineCtx, token: str, what: str) -> float:
     """Parse a finite decimal literal (no ``nan``/``inf``/underscores)."""
     if not _NUMBER_RE.match(token):
         raise ctx.error(f"{what}: expected a number, got {token!r}")
-    from parsel_core.config import limit
-
     value = float(token)
     if not math.isfinite(value):  # a literal too large for a double, 1e400
         raise ctx.error(f"{what}: {token[:40]} is too large")
-    bound = limit("max_magnitude") if ctx.max_magnitude is None else ctx.max_magnitude
+    bound = ctx.max_magnitude
+    if bound is None:  # (a context made without the limit: read it here)
+        from parsel_core.config import limit
+
+        bound = limit("max_magnitude")
     if abs(value) > bound:
         raise ctx.error(f"{what}: {token[:40]} is over the limit max_magnitude = {bound:g} "
                         "(raise it with PARSEL_MAX_MAGNITUDE)")

@@ -424,7 +424,7 @@ def _compound_blocks(system: _System, columns, allowed: np.ndarray) -> list[_Blo
     errors are all finite."""
     if not system.compounds:
         return []
-    amounts = [_compound_amounts(system.r0, slopes, columns) for _, _, slopes in system.compounds]  # (S, B)
+    amounts = _compound_amounts_each(system.r0, [slopes for _, _, slopes in system.compounds], columns)  # (S, B)
     residuals = np.stack([system.r0 + f @ slopes for f, (_, _, slopes) in zip(amounts, system.compounds)])
     every = relation_max_errors(residuals, system.slices)                              # (C, R) at once
     blocks = []
@@ -533,6 +533,25 @@ def _row_costs(broken: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.n
 def _compound_amounts(r0: np.ndarray, slopes: np.ndarray, columns) -> np.ndarray:
     """Least-squares basis amounts (S, B) of ``r0 + f @ slopes = 0`` on the given columns."""
     return -(compound_solver(slopes, columns) @ r0[:, columns].T).T
+
+
+def _compound_amounts_each(r0: np.ndarray, slopes: Sequence[np.ndarray], columns) -> list[np.ndarray]:
+    """:func:`_compound_amounts` of every compound, those of as many basis amounts solved in
+    one stacked call: a system screens a dozen compounds, and a stacked SVD and product
+    make each matrix's LAPACK and BLAS calls as alone (the same bits) without the
+    wrappers' per-call cost."""
+    out: list[np.ndarray] = [None] * len(slopes)
+    by_size: dict[int, list[int]] = {}
+    for j, s in enumerate(slopes):
+        by_size.setdefault(s.shape[0], []).append(j)
+    residual = r0[:, columns].T                                                    # (K', S)
+    for index in by_size.values():
+        a = np.stack([slopes[j][:, columns] for j in index])                       # (G, B, K')
+        scale = np.maximum(np.abs(a).max(axis=(1, 2), initial=0.0), 1e-300)[:, None, None]
+        solver = np.linalg.pinv(a.transpose(0, 2, 1) / scale, rcond=1e-9) / scale  # (G, B, K')
+        for j, f in zip(index, -(solver @ residual).transpose(0, 2, 1)):
+            out[j] = f
+    return out
 
 
 def compound_solver(slopes: np.ndarray, columns) -> np.ndarray:

@@ -546,17 +546,16 @@ def _compound_amounts_each(r0: np.ndarray, slopes: Sequence[np.ndarray], columns
         by_size.setdefault(s.shape[0], []).append(j)
     residual = r0[:, columns].T                                                    # (K', S)
     for index in by_size.values():
-        a = np.stack([slopes[j][:, columns] for j in index])                       # (G, B, K')
-        scale = np.maximum(np.abs(a).max(axis=(1, 2), initial=0.0), 1e-300)[:, None, None]
-        solver = np.linalg.pinv(a.transpose(0, 2, 1) / scale, rcond=1e-9) / scale  # (G, B, K')
+        solver = compound_solver(np.stack([slopes[j] for j in index]), columns)    # (G, B, K')
         for j, f in zip(index, -(solver @ residual).transpose(0, 2, 1)):
             out[j] = f
     return out
 
 
 def compound_solver(slopes: np.ndarray, columns) -> np.ndarray:
-    """``pinv(A^T)`` (B, K'): amounts from residual columns; directions that move none of the
-    constrained points get no amount (minimum norm)."""
-    a = slopes[:, columns]
-    scale = max(float(np.abs(a).max(initial=0.0)), 1e-300)
-    return np.linalg.pinv(a.T / scale, rcond=1e-9) / scale
+    """``pinv(A^T)`` (..., B, K'): amounts from residual columns; directions that move none
+    of the constrained points get no amount (minimum norm). ``slopes`` (..., B, K) may
+    stack several compounds of B basis ops, each scaled and solved on its own."""
+    a = slopes[..., columns]
+    scale = np.maximum(np.abs(a).max(axis=(-2, -1), keepdims=True, initial=0.0), 1e-300)
+    return np.linalg.pinv(np.swapaxes(a, -1, -2) / scale, rcond=1e-9) / scale

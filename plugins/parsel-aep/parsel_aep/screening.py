@@ -530,16 +530,11 @@ def _row_costs(broken: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.n
     return broken.sum(axis=-1), np.where(~broken.any(axis=-1), 0.0, np.where(whole, total, np.inf))
 
 
-def _compound_amounts(r0: np.ndarray, slopes: np.ndarray, columns) -> np.ndarray:
-    """Least-squares basis amounts (S, B) of ``r0 + f @ slopes = 0`` on the given columns."""
-    return -(compound_solver(slopes, columns) @ r0[:, columns].T).T
-
-
 def _compound_amounts_each(r0: np.ndarray, slopes: Sequence[np.ndarray], columns) -> list[np.ndarray]:
-    """:func:`_compound_amounts` of every compound, those of as many basis amounts solved in
-    one stacked call: a system screens a dozen compounds, and a stacked SVD and product
-    make each matrix's LAPACK and BLAS calls as alone (the same bits) without the
-    wrappers' per-call cost."""
+    """Each compound's least-squares basis amounts (S, B) of ``r0 + f @ slopes = 0`` on the
+    given columns, those of as many basis amounts solved in one stacked call: a system
+    screens a dozen compounds, and a stacked SVD and product make each matrix's LAPACK and
+    BLAS calls as alone (the same bits) without the wrappers' per-call cost."""
     out: list[np.ndarray] = [None] * len(slopes)
     by_size: dict[int, list[int]] = {}
     for j, s in enumerate(slopes):

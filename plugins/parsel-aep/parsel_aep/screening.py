@@ -535,16 +535,15 @@ def _compound_amounts_each(r0: np.ndarray, slopes: Sequence[np.ndarray], columns
     given columns, those of as many basis amounts solved in one stacked call: a system
     screens a dozen compounds, and a stacked SVD and product make each matrix's LAPACK and
     BLAS calls as alone (the same bits) without the wrappers' per-call cost."""
-    out: list[np.ndarray] = [None] * len(slopes)
     by_size: dict[int, list[int]] = {}
     for j, s in enumerate(slopes):
         by_size.setdefault(s.shape[0], []).append(j)
     residual = r0[:, columns].T                                                    # (K', S)
+    solved: dict[int, np.ndarray] = {}
     for index in by_size.values():
         solver = compound_solver(np.stack([slopes[j] for j in index]), columns)    # (G, B, K')
-        for j, f in zip(index, -(solver @ residual).transpose(0, 2, 1)):
-            out[j] = f
-    return out
+        solved.update(zip(index, -(solver @ residual).transpose(0, 2, 1)))
+    return [solved[j] for j in range(len(slopes))]
 
 
 def compound_solver(slopes: np.ndarray, columns) -> np.ndarray:

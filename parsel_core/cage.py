@@ -79,6 +79,50 @@ def batched_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.ndar
     return uvw
 
 
+def approximate_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`batched_cube_coordinates` to within rounding, for cages (m, 8, 3) and points
+    (m, n, 3): for callers that compare what follows with a threshold and decide near-ties
+    again exactly (:func:`parsel_core.report.batch_relation_errors`).
+
+    A cage that is a parallelepiped at its points up to 1e-10 (the non-affine terms of the
+    trilinear map bounded there; :func:`batched_cube_coordinates` takes no Newton step below
+    1e-9) and not flattened is solved by its frame's explicit inverse (cofactors over the
+    determinant), a few array products for the whole batch instead of a LAPACK solve per
+    point; the others, tapered or near-degenerate, go to :func:`batched_cube_coordinates`.
+    """
+    corners = np.asarray(corners, dtype=float)
+    points = np.asarray(points, dtype=float)
+    c = np.ascontiguousarray(np.moveaxis(corners, 0, -1))                  # (8, 3, m): one row per coordinate
+    offset = np.moveaxis(points, 0, -1) - c[0]                              # (n, 3, m)
+    eu, ev, ew = c[4] - c[0], c[2] - c[0], c[1] - c[0]                      # the frame's edges
+    # The inverse frame's rows are the cofactors ev x ew, ew x eu, eu x ev over the determinant.
+    rows = [_cross(ev, ew), _cross(ew, eu), _cross(eu, ev)]
+    det = eu[0] * rows[0][0] + eu[1] * rows[0][1] + eu[2] * rows[0][2]
+    volume = np.sqrt((eu * eu).sum(0) * (ev * ev).sum(0) * (ew * ew).sum(0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uvw = np.stack([(offset[:, 0] * r[0] + offset[:, 1] * r[1] + offset[:, 2] * r[2]) / det for r in rows])
+    # p(u, v, w) = c0 + eu u + ev v + ew w + a uv + b uw + d vw + h uvw: the affine solve is
+    # off by the last four terms, bounded at the points by their coefficients.
+    a = np.abs(c[6] - c[4] - c[2] + c[0]).max(axis=0)
+    b = np.abs(c[5] - c[4] - c[1] + c[0]).max(axis=0)
+    d = np.abs(c[3] - c[2] - c[1] + c[0]).max(axis=0)
+    h = np.abs(c[7] - c[6] - c[5] - c[3] + c[4] + c[2] + c[1] - c[0]).max(axis=0)
+    u, v, w = np.abs(uvw)                                                   # (n, m) each
+    with np.errstate(invalid="ignore"):  # (a flat cage: NaN, sent to the exact solve)
+        bound = (a * u * v + b * u * w + d * v * w + h * u * v * w).max(axis=0, initial=0.0)
+        affine = (np.abs(det) >= 0.1 * volume) & (volume > 0) & (bound < 1e-10)
+    uvw = np.ascontiguousarray(uvw.transpose(2, 1, 0))                      # (m, n, 3)
+    rest = np.flatnonzero(~affine)
+    if rest.size:
+        uvw[rest] = batched_cube_coordinates(corners[rest], points[rest])
+    return uvw
+
+
+def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Cross products of vectors stored as coordinate rows (3, m)."""
+    return np.stack([x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]])
+
+
 def _batched_newton(corners: np.ndarray, points: np.ndarray, iterations: int = 30) -> np.ndarray:
     """``np.stack([inverse_trilinear(c, p) for c, p in zip(corners, points)])`` for cages
     (m, 8, 3) and points (m, n, 3), every step taken for all cages at once.

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from parsel_core.cage import batched_cube_coordinates
+from parsel_core.cage import approximate_cube_coordinates, batched_cube_coordinates
 from parsel_core.errors import ParselError
 from parsel_core.graph import ShapeGraph
 from parsel_core.hexahedron import CORNER_BITS
@@ -85,8 +85,8 @@ class RelationReport:
         return {**data, "counts": self.counts(), "relations": [r.to_dict() for r in self.relations], **self.extra}
 
 
-def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str, strict: bool = False
-                  ) -> np.ndarray:
+def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], member: str, strict: bool = False,
+                  approximate: bool = False) -> np.ndarray:
     """How far a laid-out group member's contact slid *off* the other part, per sample.
 
     When a group's count or spacing changes, its instances sit at new places along the
@@ -95,7 +95,8 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     the contact point keeps the other part's cage coordinates that were on its boundary
     (0 or 1) and stays within [0, 1] in the others. Errors are in world units. A
     degenerate cage makes every error infinite, or with ``strict`` raises
-    ``LinAlgError``.
+    ``LinAlgError``. With ``approximate`` the contact's cage coordinates are those of
+    :func:`~parsel_core.cage.approximate_cube_coordinates` (the same to within rounding).
     """
     a, b = relation.members
     own_weights, other_weights = (relation.weights_a, relation.weights_b) if member == a else (
@@ -115,7 +116,7 @@ def sliding_error(relation: Attachment, corners: Mapping[str, np.ndarray], membe
     own, target = own[present], target[present]
     points = np.asarray(own_weights) @ own                                              # (B, k, 3)
     try:
-        uvw = batched_cube_coordinates(target, points)
+        uvw = (approximate_cube_coordinates if approximate else batched_cube_coordinates)(target, points)
     except np.linalg.LinAlgError:  # a degenerate cage: the contact cannot be located
         if strict:
             raise
@@ -176,7 +177,8 @@ def batch_relation_errors(relation: Relation, corners: Mapping[str, np.ndarray],
     """:func:`relation_error` of every row of a batch, (C,): corners of shape (C, S, 8, 3)
     (C alternatives, such as candidate edits, each at S samples) or (S, 8, 3) (the same in
     every row), in one evaluation with the rules of :func:`sample_errors` applied row by
-    row. Values may differ from the row-by-row ones in the last bits (batched products):
+    row. Values may differ from the row-by-row ones in the last bits (batched products, and
+    sliding contacts located by :func:`~parsel_core.cage.approximate_cube_coordinates`):
     callers comparing them with a threshold re-check near-ties row by row."""
     sliding = set(sliding)
     rows = max(np.shape(corners[m])[0] for m in relation.members if np.ndim(corners[m]) == 4)
@@ -215,7 +217,7 @@ def _sliding_error_rows(relation: Attachment, corners: Mapping[str, np.ndarray],
     """:func:`sliding_error` of a batch, (rows, S); a degenerate cage makes only its own
     row infinite (for the whole batch at once it would make every row so)."""
     try:
-        return _rows(sliding_error(relation, corners, member, strict=True), rows)
+        return _rows(sliding_error(relation, corners, member, strict=True, approximate=True), rows)
     except np.linalg.LinAlgError:
         return np.stack([np.asarray(sliding_error(relation, {m: c[row] if np.ndim(c) == 4 else c
                                                             for m, c in corners.items()}, member), dtype=float)

@@ -119,7 +119,8 @@ def approximate_cube_coordinates(corners: np.ndarray, points: np.ndarray) -> np.
 
 
 def _cross(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Cross products of vectors stored as coordinate rows (3, m)."""
+    """Cross products of vectors stored as coordinate rows (3, m); the same bits as
+    ``np.cross(x, y, axis=0)``, which moves the axis and runs several times slower here."""
     return np.stack([x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2], x[0] * y[1] - x[1] * y[0]])
 
 

@@ -8,6 +8,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from parsel_core import __version__
 from parsel_core.config import check_limit
@@ -300,6 +301,23 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
+def _parse_solver_options(items: list[str] | None) -> dict[str, Any]:
+    """``--solver-option NAME=VALUE`` items as the solver's options: a JSON number,
+    ``true``, ``false``, ``null`` or string is that value, anything else the text itself
+    (a name); the solver checks names and values."""
+    options: dict[str, Any] = {}
+    for item in items or []:
+        name, sep, text = item.partition("=")
+        if not sep or not name.strip() or not text.strip():
+            raise ParselError(f"--solver-option {item!r}: expected NAME=VALUE, e.g. joint=0")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = text
+        options[name.strip()] = text if isinstance(value, (list, dict)) else value
+    return options
+
+
 def _language_options(args: argparse.Namespace) -> dict:
     """The language-model options every request-taking command shares."""
     return {"provider": args.provider, "model": args.model, "samples": args.samples, "backend": args.backend,
@@ -328,13 +346,14 @@ def cmd_edit(args: argparse.Namespace) -> int:
         check_output_dir(args.output, args.force)
     check_tau(args.tau)
     options = {"tau": args.tau} if args.tau is not None else {}
+    solver_options = _parse_solver_options(args.solver_option)
     try:
         with working("edit", enabled=shows_progress()):
             result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),
                               breaks=list(args.break_ or ()), solver=args.solver, nhbd=not args.no_nhbd,
                               breaking=not args.no_breaking, replay=args.replay, timeout=args.timeout,
                               retries=args.retries, with_image=args.with_image, on=args.on,
-                              **_language_options(args), **options)
+                              solver_options=solver_options, **_language_options(args), **options)
     except InferenceError as exc:
         # The record of what was asked and answered is the useful output of a failed inference;
         # a previous OUTDIR is never replaced by it.
@@ -575,6 +594,9 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
                    "max_magnitude (default: chosen automatically)")
     p.add_argument("--no-nhbd", action="store_true", help="ablation: no candidates from edited neighbours")
     p.add_argument("--no-breaking", action="store_true", help="ablation: no breaking-edits")
+    p.add_argument("--solver-option", action="append", metavar="NAME=VALUE",
+                   help="a solver option, repeatable, over the flags above (aep: joint=0 turns the joint pass "
+                        "off, faster but fewer relations kept; docs/aep.md lists them)")
     p.add_argument("--on", metavar="PROGRAM", help="grow this program (program.json of an earlier edit or "
                    "proxydural, or its OUTDIR): the request becomes one more parameter, checked jointly")
     p.add_argument("-o", "--output", metavar="OUTDIR", help="output folder: program.json, report.json and "

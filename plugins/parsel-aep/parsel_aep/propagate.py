@@ -52,6 +52,7 @@ from parsel_aep.derive import (
     simpler_equivalent,
     symbolic_residual,
 )
+from parsel_aep.options import AEPOptions
 from parsel_aep.screening import (
     Screened,
     apply_each,
@@ -92,33 +93,6 @@ _REMEMBERED_ERRORS = 100_000
 _REMEMBERED_DIGESTS = 10_000
 #: Ops the joint pass can redo with scalings and translations (cluster.py).
 BOX_OPS = frozenset({"translate", "scale_1d", "scale_2d", "scale_3d"})
-
-
-@dataclass(frozen=True)
-class AEPOptions:
-    """Switches for ablations (paper table 4) and numeric settings."""
-
-    nhbd: bool = True
-    breaking: bool = True
-    tau: float | None = None
-    tau_max: float = 1.0
-    samples: int = 17
-    relative_tolerance: float = 1e-4
-    backend: str | None = None
-    #: Passes of the second look at parts decided too early (0 turns it off).
-    repair: int = 2
-    #: Whether that second look may also take breaking-edits that lower the total error.
-    repair_breaking: bool = False
-    #: Rings of neighbours around the broken relations solved jointly (cluster.py; 0: off).
-    joint: int = 3
-
-    @classmethod
-    def from_mapping(cls, options: Mapping[str, Any]) -> AEPOptions:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(options) - known)
-        if unknown:
-            raise ParselError(f"unknown AEP option(s): {', '.join(unknown)}")
-        return cls(**options)
 
 
 @dataclass

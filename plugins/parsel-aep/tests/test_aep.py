@@ -164,6 +164,12 @@ def test_edit_command_writes_program_and_report_deterministically(tmp_path, caps
     (["--seed", SEED, "--break", "glue_9"], "no relation 'glue_9'"),
     (["--seed", SEED, "--backend", "maple"], "unknown CAS backend"),
     (["--seed", SEED, "--solver", "oracle"], "unknown solver 'oracle'"),
+    (["--seed", SEED, "--solver-option", "joint"], "--solver-option 'joint': expected NAME=VALUE"),
+    (["--seed", SEED, "--solver-option", "joint=1.5"], "AEP option joint: expected a whole number"),
+    (["--seed", SEED, "--solver-option", "joint=two"], "AEP option joint: expected a whole number from 0 to 10, "
+                                                          "got 'two'"),
+    (["--seed", SEED, "--solver-option", "samples=1"], "AEP option samples"),
+    (["--seed", SEED, "--solver-option", "jiont=0"], "unknown AEP option(s): jiont"),
 ])
 def test_edit_bad_input_is_one_line_exit_2_and_no_outdir(tmp_path, capsys, argv, fragment):
     out = tmp_path / "out"
@@ -205,3 +211,27 @@ def test_stretching_a_shelf_adds_boards_with_change_count():
     assert thickness == pytest.approx(0.018)  # boards keep their shape
     top = high.instances["boards"][-1].mean(axis=0)[1]
     assert top == pytest.approx((0.05 + 0.383 * 4 + 0.009) * 2)  # the last board follows the stretched sides
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"joint": "0"}, "AEP option joint: expected a whole number from 0 to 10, got '0'"),
+    ({"joint": 11}, "AEP option joint"),
+    ({"repair": True}, "AEP option repair"),
+    ({"samples": 2}, "AEP option samples: expected a whole number from 3 to 1000"),
+    ({"nhbd": "no"}, "AEP option nhbd: expected true or false"),
+    ({"tau": 0.0}, "AEP option tau: expected a positive number"),
+    ({"tau_max": float("inf")}, "AEP option tau_max"),
+    ({"relative_tolerance": 1.5}, "AEP option relative_tolerance: expected a number between 0 and 1"),
+    ({"backend": 3}, "AEP option backend"),
+    ({"joint": 1, "speed": "max"}, r"unknown AEP option\(s\): speed \(known: backend, breaking"),
+])
+def test_options_are_checked_before_solving_with_the_option_named(options, message):
+    with pytest.raises(ParselError, match=message):
+        solve(tiny_table(), SEED, options=options)
+
+
+def test_options_take_numpy_numbers_and_none():
+    from parsel_aep.options import AEPOptions
+
+    options = AEPOptions.from_mapping({"joint": np.int64(0), "tau": None, "tau_max": np.float64(0.5), "samples": 9})
+    assert (options.joint, options.tau, options.tau_max, options.samples) == (0, None, 0.5, 9)

@@ -1,6 +1,7 @@
 """What AEP keeps on real shapes: hand-computed cases for the candidates that keep the
 relations of slightly asymmetric assemblies, and the robustness of the solver."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -179,6 +180,23 @@ def test_legs_under_a_seat_widened_off_their_mirror_plane_each_move_out_by_their
     # part by part (no joint pass) the mirrored legs' moves conflict with their contacts
     _, without, _ = joint_case("chair_2436", seed, joint=0)
     assert without.rejected
+
+
+def test_the_joint_pass_is_switched_off_from_the_command_line(tmp_path):
+    """``parsel edit --solver-option joint=0`` solves as ``options={"joint": 0}`` does (the
+    faster, part-by-part answer); without it the joint pass keeps every relation."""
+    from parsel_core.cli import main
+
+    seed = "scale_1d('cube1', origin=(0.00174, -0.055013, 0.000865), dir=(1, 0, 0), amount=0.5*x)"
+    _, without, _ = joint_case("chair_2436", seed, joint=0)
+    shape = str(JOINT / "chair_2436.txt")
+    for name, extra in (("off", ["--solver-option", "joint=0"]), ("on", [])):
+        assert main(["edit", shape, "--seed", seed, *extra, "-o", str(tmp_path / name), "-q"]) == 0
+    off = Program.from_json((tmp_path / "off" / "program.json").read_text())
+    assert [(op.name, op.operand, op.amount) for op in off.ops] == [
+        (op.name, op.operand, op.amount) for op in without.program.ops]
+    counts = {name: json.loads((tmp_path / name / "report.json").read_text())["counts"] for name in ("off", "on")}
+    assert counts["on"]["broken"] == 0 < counts["off"]["broken"]
 
 
 def test_stretchers_between_legs_of_different_heights_tilt_with_them():

@@ -10,7 +10,9 @@ archive`` into a temporary folder and put first on ``PYTHONPATH``, so both sides
 this checkout's virtual environment (same interpreter, numpy, trimesh ...); bytecode is
 cached in a temporary ``PYTHONPYCACHEPREFIX`` and each side runs every command once
 before timing, as an installed parsel would. ``edit`` programs of both sides are
-compared byte for byte.
+compared byte for byte. A floor process (the interpreter and numpy, started as ``parsel``
+starts them) is timed between the edit runs: its median shows how fast the machine was,
+so runs on different days compare by what the edit costs above it.
 
     python benchmarks/bench_cli.py [--base REV] [--runs 7]
 
@@ -32,6 +34,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 GOAL_EDIT_CPU_S = 1.0
+#: The floor under every command: the interpreter and numpy, started as ``parsel`` starts
+#: them (BLAS on one thread). Timed between the edit runs; its median says how fast the
+#: machine was during the run, so figures from different days can be compared.
+FLOOR = "import os\nfrom parsel_core.blas import one_thread_unless_chosen\none_thread_unless_chosen(os.environ)\n" \
+        "import numpy"
 COMMANDS = {
     "parsel --help": ["--help"],
     "parsel inspect chair --json": ["inspect", "chair", "--json"],
@@ -124,6 +131,7 @@ def main() -> None:
               f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, load average "
               f"{os.getloadavg()[0]:.1f}")
         results: dict[tuple[str, str], list[tuple[float, float]]] = {}
+        floor: list[tuple[float, float]] = []
         for label, template in COMMANDS.items():
             for name in sides:  # warm-up: bytecode caches, page cache
                 run_once(entries[name], [a.format(out=work / f"warm-{name}") for a in template], envs[name], work)
@@ -131,6 +139,8 @@ def main() -> None:
                 for name in (sides if i % 2 == 0 else reversed(list(sides))):
                     argv = [a.format(out=work / f"out-{name}") for a in template]
                     results.setdefault((label, name), []).append(run_once(entries[name], argv, envs[name], work))
+                if label == list(COMMANDS)[-1]:
+                    floor.append(run_once([sys.executable, "-c", FLOOR], [], envs["this"], work))
         print(f"\n{'command':<44}{'CPU base':>10}{'CPU this':>10}{'ratio':>8}{'wall base':>11}{'wall this':>11}"
               f"{'ratio':>8}")
         for label in COMMANDS:
@@ -143,6 +153,9 @@ def main() -> None:
         print(f"\nedit programs of base and this checkout: {'identical' if same else 'DIFFERENT'}")
         print(f"goal: parsel edit chair ... <= {GOAL_EDIT_CPU_S:g} s CPU: {edit:.3f} s "
               f"{'ok' if edit <= GOAL_EDIT_CPU_S else 'NOT MET'}")
+        lowest = statistics.median(c for c, _ in floor)
+        print(f"floor: python and numpy as parsel starts them, timed between the edit runs: {lowest:.3f} s CPU; "
+              f"parsel edit chair ... above it: {edit - lowest:.3f} s ({edit / lowest:.1f}x the floor)")
         print("CPU: user + system time of the process (os.wait4); medians; ratio = base / this")
 
 

@@ -19,7 +19,6 @@ Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shap
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import time
@@ -30,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from parsel_core.interfaces import SolveRequest
-from parsel_core.loading import load_shape
+from parsel_core.loading import load_shape, parse_options
 from parsel_core.plugins import get_cas_backend, solvers
 from parsel_core.program import Program, compile_program
 from parsel_core.report import check_program
@@ -213,10 +212,7 @@ def main() -> None:
                         help="with --baseline, take parsel_core from REV too (relations and ops as they were)")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
-    extra = {}
-    for item in args.option:
-        name, _, value = item.partition("=")
-        extra[name] = json.loads(value)
+    extra = parse_options(args.option, "--option")
     backends = args.backends.split(",")
     programs: dict[int, Program] = {}
     requests: list[tuple[object, str]] = []

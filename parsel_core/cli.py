@@ -8,7 +8,6 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 from parsel_core import __version__
 from parsel_core.config import check_limit
@@ -301,23 +300,6 @@ def _parse_hints(items: list[str] | None) -> dict[str, str]:
     return hints
 
 
-def _parse_solver_options(items: list[str] | None) -> dict[str, Any]:
-    """``--solver-option NAME=VALUE`` items as the solver's options: a JSON number,
-    ``true``, ``false``, ``null`` or string is that value, anything else the text itself
-    (a name); the solver checks names and values."""
-    options: dict[str, Any] = {}
-    for item in items or []:
-        name, sep, text = item.partition("=")
-        if not sep or not name.strip() or not text.strip():
-            raise ParselError(f"--solver-option {item!r}: expected NAME=VALUE, e.g. joint=0")
-        try:
-            value = json.loads(text)
-        except ValueError:
-            value = text
-        options[name.strip()] = text if isinstance(value, (list, dict)) else value
-    return options
-
-
 def _language_options(args: argparse.Namespace) -> dict:
     """The language-model options every request-taking command shares."""
     return {"provider": args.provider, "model": args.model, "samples": args.samples, "backend": args.backend,
@@ -338,6 +320,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
     from parsel_core import api
     from parsel_core.language import InferenceError
     from parsel_core.language.inference_io import keep_failed_record
+    from parsel_core.loading import parse_options
 
     stdout = to_stdout(args.output)
     if stdout and args.json:
@@ -346,7 +329,7 @@ def cmd_edit(args: argparse.Namespace) -> int:
         check_output_dir(args.output, args.force)
     check_tau(args.tau)
     options = {"tau": args.tau} if args.tau is not None else {}
-    solver_options = _parse_solver_options(args.solver_option)
+    solver_options = parse_options(args.solver_option, "--solver-option")
     try:
         with working("edit", enabled=shows_progress()):
             result = api.edit(args.shape, args.request, args.seed, mode=args.mode, hints=_parse_hints(args.hint),

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
+from typing import Any
 
 from parsel_core.errors import ParselError, ProgramFormatError
 from parsel_core.graph import ShapeGraph
@@ -83,3 +85,21 @@ def parse_assignments(items: list[str] | None) -> dict[str, float]:
         except ValueError:
             raise ParselError(f"--set {item!r}: expected NAME=NUMBER") from None
     return values
+
+
+def parse_options(items: list[str] | None, flag: str) -> dict[str, Any]:
+    """``["joint=0", "backend=sympy"]`` -> ``{"joint": 0, "backend": "sympy"}``: a JSON
+    number, ``true``, ``false``, ``null`` or string is that value, anything else the text
+    itself (a name); whoever takes the options checks names and values. ``flag`` names
+    the option in the error."""
+    options: dict[str, Any] = {}
+    for item in items or []:
+        name, sep, text = item.partition("=")
+        if not sep or not name.strip() or not text.strip():
+            raise ParselError(f"{flag} {item!r}: expected NAME=VALUE, e.g. joint=0")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            value = text
+        options[name.strip()] = text if isinstance(value, (list, dict)) else value
+    return options

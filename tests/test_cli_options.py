@@ -182,3 +182,15 @@ def test_apply_without_o_writes_stdout_with_a_format(files, capsys, tmp_path):
     assert main(["apply", "tiny_table", str(program), "--format", "obj"]) == 0
     assert capsys.readouterr().out == (tmp_path / "t.obj").read_text()
     one_line_error(capsys, ["apply", "tiny_table", str(program)], "no -o FILE: name an output file, or the format")
+
+
+def test_name_value_options_are_typed_as_json_scalars_else_kept_as_text():
+    from parsel_core.errors import ParselError
+    from parsel_core.loading import parse_options
+
+    items = ["joint=0", "tau=0.5", "nhbd=false", "tau_max=null", "backend=sympy", 'name="a b"', "list=[1, 2]"]
+    assert parse_options(items, "--option") == {"joint": 0, "tau": 0.5, "nhbd": False, "tau_max": None,
+                                                "backend": "sympy", "name": "a b", "list": "[1, 2]"}
+    for bad in ("joint", "=1", "joint="):
+        with pytest.raises(ParselError, match=f"--option '{bad}': expected NAME=VALUE"):
+            parse_options([bad], "--option")

@@ -332,15 +332,16 @@ class Interpreter:
         """Misspelt words read as the one word of this shape's vocabulary they are one edit away from
         (two for words of six letters or more; a swap of neighbours is one edit), starting with the
         same letter; a word with no such unique match is left for the refusal to name."""
-        from rapidfuzz.distance import DamerauLevenshtein
-
         out, corrections = [], []
         targets = None
         for word in words:
             if len(word) < 3 or self._known(word):
                 out.append(word)
                 continue
-            targets = targets or self._targets()
+            if targets is None:  # (the first unknown word: most requests have none)
+                from rapidfuzz.distance import DamerauLevenshtein
+
+                targets = self._targets()
             limit = 1 if len(word) <= 5 else 2
             best: list[tuple[int, str]] = []
             for target in targets:

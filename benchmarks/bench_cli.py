@@ -1,18 +1,20 @@
-"""Whole-command cost: ``parsel --help``, ``inspect chair --json`` and ``edit chair "make the chair wider"``.
+"""Whole-command cost: ``parsel --help``, ``inspect chair --json`` and two ``edit chair`` requests.
 
 Each command runs as a fresh process, as a user runs it (the side's own ``parsel``
 script entry, ``[project.scripts]``), for this checkout and for a base commit,
 alternately in the same run (so machine load hits both alike). CPU time is the child's
 user + system time (``os.wait4``), wall time its elapsed time; the table prints medians
-and the ratios base / this checkout, then checks the goal: ``parsel edit chair ...`` at
-most 1 s of CPU. The base commit's sources are extracted with ``git
-archive`` into a temporary folder and put first on ``PYTHONPATH``, so both sides run in
-this checkout's virtual environment (same interpreter, numpy, trimesh ...); bytecode is
-cached in a temporary ``PYTHONPYCACHEPREFIX`` and each side runs every command once
-before timing, as an installed parsel would. ``edit`` programs of both sides are
-compared byte for byte. A floor process (the interpreter and numpy, started as ``parsel``
-starts them) is timed between the edit runs: its median shows how fast the machine was,
-so runs on different days compare by what the edit costs above it.
+and the ratios base / this checkout, then checks the goal: ``parsel edit chair "make the
+chair wider"`` at most 1 s of CPU. The second request, ``"make the legs longer"``, names
+a set of symmetric parts, as most requests do, and is read along other paths. The base
+commit's sources are extracted with ``git archive`` into a temporary folder and put
+first on ``PYTHONPATH``, so both sides run in this checkout's virtual environment (same
+interpreter, numpy, trimesh ...); bytecode is cached in a temporary
+``PYTHONPYCACHEPREFIX`` and each side runs every command once before timing, as an
+installed parsel would. Each request's ``edit`` programs of both sides are compared
+byte for byte. A floor process (the interpreter and numpy, started as ``parsel`` starts
+them) is timed between the runs of the goal's edit: its median shows how fast the
+machine was, so runs on different days compare by what the edit costs above it.
 
     python benchmarks/bench_cli.py [--base REV] [--runs 7]
 
@@ -45,6 +47,7 @@ COMMANDS = {
     "parsel --help": ["--help"],
     "parsel inspect chair --json": ["inspect", "chair", "--json"],
     EDIT: ["edit", "chair", "make the chair wider", "-o", "{out}"],
+    'parsel edit chair "make the legs longer"': ["edit", "chair", "make the legs longer", "-o", "{out}"],
 }
 
 
@@ -134,12 +137,12 @@ def main() -> None:
               f"{os.getloadavg()[0]:.1f}")
         results: dict[tuple[str, str], list[tuple[float, float]]] = {}
         floor: list[tuple[float, float]] = []
-        for label, template in COMMANDS.items():
+        for number, (label, template) in enumerate(COMMANDS.items()):
             for name in sides:  # warm-up: bytecode caches, page cache
                 run_once(entries[name], [a.format(out=work / f"warm-{name}") for a in template], envs[name], work)
             for i in range(args.runs):
                 for name in (sides if i % 2 == 0 else reversed(list(sides))):
-                    argv = [a.format(out=work / f"out-{name}") for a in template]
+                    argv = [a.format(out=work / f"out-{name}-{number}") for a in template]
                     results.setdefault((label, name), []).append(run_once(entries[name], argv, envs[name], work))
                 if label == EDIT:
                     floor.append(run_once([sys.executable, "-c", FLOOR], [], envs["this"], work))
@@ -150,7 +153,9 @@ def main() -> None:
             wall = {n: statistics.median(w for _, w in results[(label, n)]) for n in sides}
             print(f"{label:<44}{cpu['base']:>9.3f}s{cpu['this']:>9.3f}s{cpu['base'] / cpu['this']:>7.1f}x"
                   f"{wall['base']:>10.3f}s{wall['this']:>10.3f}s{wall['base'] / wall['this']:>7.1f}x")
-        same = (work / "out-base" / "program.json").read_bytes() == (work / "out-this" / "program.json").read_bytes()
+        edits = [number for number, template in enumerate(COMMANDS.values()) if "{out}" in template]
+        same = all((work / f"out-base-{n}" / "program.json").read_bytes()
+                   == (work / f"out-this-{n}" / "program.json").read_bytes() for n in edits)
         edit = statistics.median(c for c, _ in results[(EDIT, "this")])
         print(f"\nedit programs of base and this checkout: {'identical' if same else 'DIFFERENT'}")
         print(f"goal: parsel edit chair ... <= {GOAL_EDIT_CPU_S:g} s CPU: {edit:.3f} s "

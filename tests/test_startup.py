@@ -113,7 +113,8 @@ def test_the_sympy_backend_class_is_importable_without_sympy():
     assert "sympy" in imported_after(code)
 
 
-@pytest.mark.parametrize("argv", [("inspect", "chair", "--json"), ("edit", "chair", "make the chair wider")])
+@pytest.mark.parametrize("argv", [("inspect", "chair", "--json"), ("edit", "chair", "make the chair wider"),
+                                  ("edit", "chair", "make the legs longer"), ("edit", "chair", "make the back taller")])
 def test_inspect_and_edit_of_the_bundled_chair_import_no_heavy_dependency(argv, tmp_path):
     if argv[0] == "edit":
         argv = (*argv, "-o", str(tmp_path / "out"))

@@ -1,6 +1,8 @@
 """Analytical Edit Propagation on designed cases with known answers."""
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -235,3 +237,17 @@ def test_options_take_numpy_numbers_and_none():
 
     options = AEPOptions.from_mapping({"joint": np.int64(0), "tau": None, "tau_max": np.float64(0.5), "samples": 9})
     assert (options.joint, options.tau, options.tau_max, options.samples) == (0, None, 0.5, 9)
+
+
+def test_a_breaking_edit_does_not_import_numpy_masked_arrays():
+    """``numpy.ma`` (20-30 ms of a command's start-up) stays unloaded by a solve that takes
+    breaking-edits (breaking.py groups its rows without ``np.unique``)."""
+    code = ("import sys\nfrom parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
+            "from parsel_core.interfaces import SolveRequest\nfrom parsel_core.plugins import solvers\n"
+            "hints = {leg: 'translate' for leg in ('leg_bl', 'leg_br', 'leg_fl', 'leg_fr')}\n"
+            "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
+            "result = solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
+            "print(result.stats['breaking_edits'] >= 1, 'numpy.ma' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["True", "False"]

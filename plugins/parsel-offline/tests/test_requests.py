@@ -181,3 +181,34 @@ def _table(tmp_path, line, name="t.tsv"):
     path = tmp_path / name
     path.write_text(line + "\n", encoding="utf-8")
     return path
+
+
+def _networkx_components(summary, parts, broken=()):
+    import networkx as nx
+
+    graph = nx.Graph()
+    graph.add_nodes_from(parts)
+    for relation in summary.relations.values():
+        if relation.kind in ("reflection", "translation", "rotation") and set(relation.members) <= set(parts) \
+                and relation.id not in broken:
+            graph.add_edges_from((relation.members[0], m) for m in relation.members[1:])
+    return sorted(tuple(sorted(c)) for c in nx.connected_components(graph))
+
+
+def test_symmetric_sets_are_the_connected_components_of_the_symmetries(chair, shelf):
+    from parsel_offline.interpreter import Interpreter
+
+    reader = Interpreter(chair)
+    everything = [p for ids in chair.labels().values() for p in ids]
+    assert reader.components(everything) == [
+        ("back_rail",), tuple(f"back_slat.00{i}" for i in range(5)), ("back_upright.000", "back_upright.001"),
+        ("leg.000", "leg.001", "leg.002", "leg.003"), ("seat",)]
+    for summary in (chair, shelf):
+        reader = Interpreter(summary)
+        labelled = [list(ids) for ids in summary.labels().values()]
+        everything = [p for ids in labelled for p in ids]
+        symmetries = [r.id for r in summary.relations.values() if r.kind in ("reflection", "translation", "rotation")]
+        for parts in [*labelled, everything, everything[::2]]:
+            for broken in ((), tuple(symmetries[::2]), tuple(symmetries)):
+                reader.broken = set(broken)
+                assert reader.components(parts) == _networkx_components(summary, parts, broken), (parts, broken)

@@ -5,10 +5,14 @@
 * ``parsel_backend``: each installed CAS backend in turn (the test runs once per backend).
 * ``parsel_check``: the conformance kit's checks (:mod:`parsel_core.testing`) of the plugins
   named by ``--parsel-plugin NAME`` (repeatable) or by the test module's ``PARSEL_PLUGINS``.
+* ``parsel_fresh_python``: run code in a new interpreter and read what it printed (start-up
+  checks: "importing the plugin does not import trimesh").
 """
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -36,6 +40,21 @@ def parsel_register() -> Iterator[Callable[[Any], Any]]:
     yield register
     for name in names:
         pm.unregister(name=name)
+
+
+@pytest.fixture
+def parsel_fresh_python() -> Callable[[str], str]:
+    """``run(code)``: Python ``code`` run in a new interpreter, where nothing is imported yet
+    (what a command's start-up pays is then visible in ``sys.modules``); returns what it
+    printed, and fails the test with its error output if it exits non-zero."""
+
+    def run(code: str) -> str:
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+        if done.returncode != 0:
+            pytest.fail(f"python -c exited with {done.returncode}: {done.stderr.strip()}", pytrace=False)
+        return done.stdout
+
+    return run
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -358,3 +358,10 @@ def test_hook_prompt_templates(parsel_register, tmp_path):
     templates = plugins.prompt_templates()
     assert templates["seed_edit"] == "Edit {shape} as asked: {request}"
     assert templates["type_hints"] == "hints for {shape}"
+
+
+def test_fresh_python_runs_code_where_nothing_is_imported_yet(parsel_fresh_python):
+    assert "pytest" in sys.modules
+    assert parsel_fresh_python("import sys\nprint('pytest' in sys.modules, 6 * 7)").split() == ["False", "42"]
+    with pytest.raises(pytest.fail.Exception, match="(?s)exited with 1: .*ZeroDivisionError"):
+        parsel_fresh_python("print('partial')\n1 / 0")

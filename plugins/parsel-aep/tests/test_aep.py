@@ -1,8 +1,6 @@
 """Analytical Edit Propagation on designed cases with known answers."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -239,7 +237,7 @@ def test_options_take_numpy_numbers_and_none():
     assert (options.joint, options.tau, options.tau_max, options.samples) == (0, None, 0.5, 9)
 
 
-def test_a_breaking_edit_does_not_import_numpy_masked_arrays():
+def test_a_breaking_edit_does_not_import_numpy_masked_arrays(parsel_fresh_python):
     """``numpy.ma`` (20-30 ms of a command's start-up) stays unloaded by a solve that takes
     breaking-edits (breaking.py groups its rows without ``np.unique``)."""
     code = ("import sys\nfrom parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
@@ -248,6 +246,4 @@ def test_a_breaking_edit_does_not_import_numpy_masked_arrays():
             "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
             "result = solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
             "print(result.stats['breaking_edits'] >= 1, 'numpy.ma' in sys.modules)")
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.split() == ["True", "False"]
+    assert parsel_fresh_python(code).split() == ["True", "False"]

@@ -138,13 +138,9 @@ def options(fake: FakeOpenAI, **extra) -> dict:
             "retries": 3, "backoff": 0.01, **extra}
 
 
-def test_plugin_import_does_not_import_litellm():
-    import subprocess
-    import sys
-
+def test_plugin_import_does_not_import_litellm(parsel_fresh_python):
     code = "import sys, parsel_litellm; print('litellm' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
+    assert parsel_fresh_python(code).strip() == "False"
 
 
 def test_litellm_is_told_to_use_its_local_price_list(fake):

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -35,11 +33,10 @@ def test_contributions():
     assert set(parsel_mesh.parsel_example_shapes()) == set(NAMES)
 
 
-def test_importing_the_plugin_does_not_import_trimesh():
+def test_importing_the_plugin_does_not_import_trimesh(parsel_fresh_python):
     code = "import sys, parsel_mesh; parsel_mesh.parsel_shape_loaders(); parsel_mesh.parsel_example_shapes(); " \
            "parsel_mesh.parsel_exporters(); parsel_mesh.parsel_deformers(); print('trimesh' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"
+    assert parsel_fresh_python(code).strip() == "False"
 
 
 def test_parsel_plugins_lists_it(capsys):

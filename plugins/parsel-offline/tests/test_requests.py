@@ -4,8 +4,6 @@ hand-worked expectation, and the whole request table (both halves) as a regressi
 from __future__ import annotations
 
 import importlib
-import subprocess
-import sys
 
 import pytest
 
@@ -55,16 +53,14 @@ def test_typos_are_read_as_the_shapes_words_and_said_so(chair, typo, word):
     assert f"I read '{typo}' as '{word}'." in reading.reasons
 
 
-def test_the_typo_matcher_loads_only_for_a_word_it_does_not_know():
+def test_the_typo_matcher_loads_only_for_a_word_it_does_not_know(parsel_fresh_python):
     """rapidfuzz (about 15 ms of every ``parsel edit``) is imported at the first unknown word."""
     code = ("import sys\nfrom parsel_core.language import describe_shape\nfrom parsel_core.language.describe "
             "import read_description\nfrom parsel_core.loading import load_shape\nimport parsel_offline\n"
             "chair = read_description(describe_shape(load_shape('chair')))\n"
             "parsel_offline.interpret(chair, 'make the chair wider')\nprint('rapidfuzz' in sys.modules)\n"
             "parsel_offline.interpret(chair, 'make the chiar wider')\nprint('rapidfuzz' in sys.modules)")
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stderr
-    assert result.stdout.split() == ["False", "True"]
+    assert parsel_fresh_python(code).split() == ["False", "True"]
 
 
 def test_a_word_too_far_from_any_is_refused_naming_it_with_a_phrasing(chair):

@@ -2,8 +2,6 @@
 
 import json
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -95,14 +93,13 @@ def test_an_edited_program_exports_as_a_mesh(chair, tmp_path):
     assert len(scene.geometry) == 11
 
 
-def test_loading_a_program_does_not_import_trimesh(chair):
+def test_loading_a_program_does_not_import_trimesh(chair, parsel_fresh_python):
     """Box meshes are plain vertex and face arrays (trimesh takes half a second to import)."""
     code = ("import sys; from parsel_core.loading import load_shape; "
             f"shape = load_shape({str(chair)!r}); "
             "assert all(p.mesh.faces.shape == (12, 3) for p in shape.parts.values()); "
             "print(sorted(m for m in ('trimesh', 'scipy', 'sympy') if m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == "[]"
+    assert parsel_fresh_python(code).strip() == "[]"
 
 
 def test_a_cushion_on_the_seat_is_labelled_seat_and_the_panel_behind_it_back():

@@ -9,11 +9,14 @@ same on every machine, so AEP writes the same program bit for bit everywhere.
 
 A process that starts OpenBLAS with several threads also pays for them outside any
 product: the ``parsel`` command sets the thread variables to one before numpy loads
-(:func:`one_thread_unless_chosen`), unless the user chose a size.
+(:func:`one_thread_unless_chosen`), unless the user chose a size. Its BLAS then has one
+thread from the start, and :func:`one_blas_thread` does nothing (threadpoolctl, which
+costs about 25 ms of CPU to import and to find the loaded libraries, is not imported).
 """
 
 from __future__ import annotations
 
+import sys
 import threading
 from collections.abc import Iterator, MutableMapping
 from contextlib import contextmanager
@@ -39,8 +42,34 @@ def one_thread_unless_chosen(environ: MutableMapping[str, str]) -> list[str]:
     return list(THREAD_VARIABLES)
 
 
+#: Whether this process's BLAS was started on one thread (:func:`start_on_one_thread`).
+_started_single = False
+
+
+def start_on_one_thread(environ: MutableMapping[str, str]) -> bool:
+    """:func:`one_thread_unless_chosen` on the process's own ``environ`` before numpy loads
+    (the ``parsel`` program's first step): when it set the variables, every BLAS product
+    of the process runs on one thread, and :func:`one_blas_thread` has nothing to limit.
+    Whether it did so."""
+    global _started_single
+    loaded = "numpy" in sys.modules
+    _started_single = bool(one_thread_unless_chosen(environ)) and not loaded
+    return _started_single
+
+
 #: How deep this thread is in :func:`one_blas_thread` blocks.
 _depth = threading.local()
+
+
+@cache
+def _reads_thread_variables() -> bool:
+    """Whether numpy's BLAS sizes its pool from :data:`THREAD_VARIABLES` (OpenBLAS, MKL; not
+    BLIS or Accelerate), by numpy's build configuration."""
+    import numpy
+
+    blas = getattr(numpy.__config__, "CONFIG", {}).get("Build Dependencies", {}).get("blas", {})
+    name = str(blas.get("name", "")).lower()
+    return "openblas" in name or "mkl" in name
 
 
 @cache
@@ -57,11 +86,12 @@ def one_blas_thread() -> Iterator[None]:
     Entering costs about 30 microseconds (threadpoolctl reads and sets the pool), except
     inside another such block of the same thread, which already holds the limit: the
     solver's inner least-squares steps, called thousands of times per solve, then cost
-    nothing extra."""
+    nothing extra. In a process whose BLAS started on one thread (the ``parsel`` program,
+    :func:`start_on_one_thread`) there is nothing to limit and entering costs nothing."""
     depth = getattr(_depth, "value", 0)
     _depth.value = depth + 1
     try:
-        if depth:
+        if depth or (_started_single and _reads_thread_variables()):
             yield
         else:
             with _controller().limit(limits=1, user_api="blas"):

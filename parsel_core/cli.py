@@ -728,13 +728,13 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def console() -> None:
     """The ``parsel`` program: :func:`main` in a process of its own, BLAS on one thread
-    unless the user chose a size (:func:`parsel_core.blas.one_thread_unless_chosen`;
-    set before any plugin loads numpy). Callers of :func:`main` in-process keep theirs."""
+    unless the user chose a size (:func:`parsel_core.blas.start_on_one_thread`; set
+    before any plugin loads numpy). Callers of :func:`main` in-process keep theirs."""
     import os
 
-    from parsel_core.blas import one_thread_unless_chosen
+    from parsel_core.blas import start_on_one_thread
 
-    one_thread_unless_chosen(os.environ)
+    start_on_one_thread(os.environ)
     sys.exit(main())
 
 

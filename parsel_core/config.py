@@ -13,7 +13,6 @@ import difflib
 import functools
 import math
 import os
-import tomllib
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -83,6 +82,8 @@ def load_settings() -> dict[str, Any]:
         if "PARSEL_CONFIG" in os.environ:
             raise ParselError(f"{config_path()}: configuration file (PARSEL_CONFIG) does not exist")
         return {}
+    import tomllib  # (only where there is a file to read: most runs have none)
+
     path = config_path()
     try:
         data = _parsed(path.read_text(encoding="utf-8"))
@@ -102,6 +103,8 @@ def _parsed(text: str) -> dict[str, Any]:
     are (each number of a ShapeAssembly file, each amount parsed), and parsing takes about
     ten times as long as reading the file again. Keyed by the text, so an edited file is
     parsed anew. Callers get copies (:func:`load_settings`)."""
+    import tomllib
+
     return tomllib.loads(text)
 
 

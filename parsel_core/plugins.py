@@ -17,12 +17,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
-from importlib import metadata
 from typing import Any
 
 import pluggy
 
 from parsel_core import hookspecs
+from parsel_core.entrypoints import installed_entry_points
 from parsel_core.errors import UnknownPluginError
 
 ENTRY_POINT_GROUP = "parsel"
@@ -36,6 +36,8 @@ BUILTIN_PLUGINS = (
     "parsel_core.language.templates",
     "parsel_core.language.replay",
 )
+#: The entry-point groups parsel reads, looked up together (entrypoints.py caches them).
+GROUPS = (ENTRY_POINT_GROUP, COMMANDS_GROUP)
 
 
 class PluginLoadWarning(UserWarning):
@@ -71,7 +73,7 @@ class ParselPluginManager(pluggy.PluginManager):
         strict = os.environ.get("PARSEL_STRICT_PLUGINS", "") not in ("", "0")
         allow = _allowed_plugins()
         seen = set()
-        installed = sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name)
+        installed = installed_entry_points(GROUPS)[ENTRY_POINT_GROUP]
         missing = sorted((allow or set()) - {ep.name for ep in installed})
         if missing:
             raise UnknownPluginError(
@@ -81,8 +83,7 @@ class ParselPluginManager(pluggy.PluginManager):
             if ep.name in seen or (allow is not None and ep.name not in allow):
                 continue
             seen.add(ep.name)
-            dist = getattr(ep, "dist", None)
-            version = dist.version if dist is not None else None
+            version = ep.version
             try:
                 plugin = ep.load()
                 self.register(plugin, name=ep.name)
@@ -120,14 +121,15 @@ def declared_commands() -> dict[str, str]:
     plugins that ``PARSEL_PLUGINS`` leaves out are left out here too.
     """
     allow = _allowed_plugins()
+    installed = installed_entry_points(GROUPS)
     out: dict[str, str] = {}
-    for ep in sorted(metadata.entry_points(group=COMMANDS_GROUP), key=lambda e: e.name):
-        dist = getattr(ep, "dist", None)
+    for ep in installed[COMMANDS_GROUP]:
         if allow is not None:
-            names = {e.name for e in dist.entry_points if e.group == ENTRY_POINT_GROUP} if dist else set()
+            names = {e.name for e in installed[ENTRY_POINT_GROUP]
+                     if ep.distribution is not None and e.distribution == ep.distribution}
             if not names & allow:
                 continue
-        where = dist.name if dist is not None else ep.value
+        where = ep.distribution if ep.distribution is not None else ep.value
         out.setdefault(ep.name, f"from {where} (parsel {ep.name} --help says more)")
     return out
 

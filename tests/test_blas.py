@@ -3,6 +3,7 @@
 import threading
 
 import numpy as np
+import pytest
 
 from parsel_core import blas
 
@@ -60,3 +61,30 @@ def test_another_thread_limits_on_its_own(monkeypatch):
         worker.start()
         worker.join()
     assert len(calls) == 2
+
+
+PROBE = """
+import os, sys
+from parsel_core import blas
+for name in blas.THREAD_VARIABLES:
+    os.environ.pop(name, None)
+{before}
+started = blas.start_on_one_thread(os.environ)
+import numpy as np
+import pytest
+with blas.one_blas_thread():
+    np.ones((64, 64)) @ np.ones((64, 64))
+    limited_by_threadpoolctl = "threadpoolctl" in sys.modules
+from threadpoolctl import threadpool_info
+sizes = sorted({{i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}})
+print(started, limited_by_threadpoolctl, sizes)
+"""
+
+
+@pytest.mark.parametrize(("before", "expected"), [
+    ("", "True False [1]"),                           # the parsel program: one thread from the start
+    ("import numpy", "False True"),                   # too late: numpy's pool is already started
+    ("os.environ['OMP_NUM_THREADS'] = '1'", "False True"),  # a size the user chose is theirs
+])
+def test_a_process_started_on_one_thread_has_nothing_to_limit(parsel_fresh_python, before, expected):
+    assert parsel_fresh_python(PROBE.format(before=before)).strip().startswith(expected)

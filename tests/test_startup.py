@@ -194,3 +194,27 @@ def test_one_thread_unless_chosen():
     assert environ == {"PATH": "/bin", **{name: "1" for name in THREAD_VARIABLES}}
     chosen = {"OMP_NUM_THREADS": "4"}  # one size chosen: the user's choice, left whole
     assert one_thread_unless_chosen(chosen) == [] and chosen == {"OMP_NUM_THREADS": "4"}
+
+
+def test_the_command_reads_no_package_metadata_and_no_thread_library_once_cached(tmp_path):
+    """The ``parsel`` program with its BLAS started on one thread needs no threadpoolctl,
+    and with the entry points cached (entrypoints.py) no importlib.metadata (nor the email
+    package it parses metadata with); without a parsel.toml, no TOML parser."""
+    probe = ("import atexit, json, sys\n"
+             "def report():\n"
+             "    print('MODULES ' + json.dumps(sorted(sys.modules)), file=sys.stderr)\n"
+             "atexit.register(report)\n"
+             f"sys.argv = ['parsel', 'edit', 'chair', 'make the chair wider', '-o', {str(tmp_path / 'out')!r}]\n"
+             "from parsel_core.cli import console\n"
+             "console()\n")
+    env = {**clean_environment(), "PARSEL_CACHE_DIR": str(tmp_path / "cache")}
+    env.pop("PARSEL_CONFIG", None)
+    for run in ("cold", "warm"):
+        result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env,
+                                cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+        modules = set(json.loads(result.stderr.rsplit("MODULES ", 1)[1]))
+        assert not modules & {"threadpoolctl", "tomllib"}, run
+        assert ("importlib.metadata" in modules) == (run == "cold")
+        assert "email" not in {m.split(".")[0] for m in modules} or run == "cold"
+    assert list((tmp_path / "cache").glob("entry-points-*.json"))

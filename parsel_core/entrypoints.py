@@ -9,7 +9,7 @@ small JSON file, as stevedore (OpenStack's plugin loader) does for the same reas
 
 The file is valid for a :func:`fingerprint` of the import path: ``sys.path`` itself and
 the ``*.dist-info`` and ``*.egg-info`` in each of its folders, with the modification
-times of each and of its ``entry_points.txt`` (an edit in place). Any difference, or a file that cannot be
+times and sizes of each and of its ``entry_points.txt`` (an edit in place). Any difference, or a file that cannot be
 read, is a miss: the groups are read with :mod:`importlib.metadata` again and the file
 rewritten (to a temporary name, then renamed). A cache folder that cannot be written is
 no error; the process reads the metadata each time.
@@ -65,11 +65,13 @@ def cache_dir(environ: Mapping[str, str] = os.environ) -> Path | None:
     return Path(base) / "parsel"
 
 
-def _stamp(path: str) -> int | None:
+def _stamp(path: str) -> list[int] | None:
+    """Modification time and size (a file system with coarse times still sees most edits)."""
     try:
-        return os.stat(path).st_mtime_ns
+        stat = os.stat(path)
     except OSError:
         return None
+    return [stat.st_mtime_ns, stat.st_size]
 
 
 def fingerprint(path: Sequence[str]) -> list:

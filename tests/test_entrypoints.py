@@ -70,6 +70,12 @@ def test_installing_editing_and_removing_a_distribution_is_seen(tmp_path, monkey
     os.utime(text, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
     assert rows(installed_entry_points(group, cache)[group[0]]) == [("demo", "demo_plugin:other", "demo_plugin", "1.0")]
 
+    # on a file system with coarse times: the same time, another size
+    stat = text.stat()
+    text.write_text("[parsel.cache-test]\ndemo = demo_plugin:others\n")
+    os.utime(text, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+    assert rows(installed_entry_points(group, cache)[group[0]])[0][1] == "demo_plugin:others"
+
     # an upgrade, as pip does it: the old folder removed, the new one written
     for item in info.iterdir():
         item.unlink()

@@ -87,7 +87,9 @@ def one_blas_thread() -> Iterator[None]:
     inside another such block of the same thread, which already holds the limit: the
     solver's inner least-squares steps, called thousands of times per solve, then cost
     nothing extra. In a process whose BLAS started on one thread (the ``parsel`` program,
-    :func:`start_on_one_thread`) there is nothing to limit and entering costs nothing."""
+    :func:`start_on_one_thread`) there is nothing to limit and entering costs nothing; a
+    plugin that raised the pool there (``threadpoolctl``, ``torch.set_num_threads``) would
+    make the products run on its threads."""
     depth = getattr(_depth, "value", 0)
     _depth.value = depth + 1
     try:

@@ -7,15 +7,20 @@ distribution's ``entry_points.txt`` is read), more than any plugin's import. The
 only changes when distributions are installed, removed or edited, so it is kept in a
 small JSON file, as stevedore (OpenStack's plugin loader) does for the same reason.
 
-The file is valid for a :func:`fingerprint` of the import path: ``sys.path`` itself and
-the ``*.dist-info`` and ``*.egg-info`` in each of its folders, with the modification
-times and sizes of each and of its ``entry_points.txt`` (an edit in place). Any difference, or a file that cannot be
-read, is a miss: the groups are read with :mod:`importlib.metadata` again and the file
-rewritten (to a temporary name, then renamed). A cache folder that cannot be written is
-no error; the process reads the metadata each time.
+An answer is valid for a :func:`fingerprint` of the import path: ``sys.path`` itself,
+the ``*.dist-info`` and ``*.egg-info`` in each of its folders and the ``EGG-INFO`` of
+an egg on it, each with the modification time and size of the folder and of its
+``entry_points.txt`` (an edit in place). Any difference, or a file that cannot be read,
+is a miss: the groups are read with :mod:`importlib.metadata` again and the file
+rewritten (to a temporary name, then renamed). One file per interpreter keeps the
+answers for the last :data:`KEPT` import paths (the ``parsel`` script's differs from
+``python -c``'s in its first entry). A cache that cannot be read or written is no error:
+the process reads the metadata. Distributions that a custom ``sys.meta_path`` finder
+provides without files on the import path are not seen changing; ``PARSEL_CACHE_DIR=``
+(empty) turns the cache off.
 
-The folder is ``$PARSEL_CACHE_DIR``, else ``$XDG_CACHE_HOME/parsel``, else
-``~/.cache/parsel``; ``PARSEL_CACHE_DIR=`` (empty) turns the cache off.
+The folder is ``$PARSEL_CACHE_DIR``, else ``$XDG_CACHE_HOME/parsel`` (when absolute, as
+the XDG specification asks), else ``~/.cache/parsel``.
 """
 
 from __future__ import annotations
@@ -31,8 +36,12 @@ from pathlib import Path
 from typing import Any
 
 #: Bumped when the file's layout changes.
-FORMAT = 1
+FORMAT = 2
+#: Import paths remembered per interpreter (most recent first).
+KEPT = 8
 _INFO_SUFFIXES = (".dist-info", ".egg-info")
+#: ``installed_entry_points``'s folder when none is given: :func:`cache_dir`.
+DEFAULT_FOLDER: Any = object()
 
 
 @dataclass(frozen=True)
@@ -60,9 +69,10 @@ def cache_dir(environ: Mapping[str, str] = os.environ) -> Path | None:
     """Where parsel keeps its caches; ``None`` when ``PARSEL_CACHE_DIR`` is set empty."""
     chosen = environ.get("PARSEL_CACHE_DIR")
     if chosen is not None:
-        return Path(chosen) if chosen else None
-    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "parsel"
+        return Path(chosen).expanduser() if chosen else None
+    xdg = environ.get("XDG_CACHE_HOME", "")
+    base = Path(xdg) if os.path.isabs(xdg) else Path(os.path.expanduser("~")) / ".cache"
+    return base / "parsel"
 
 
 def _stamp(path: str) -> list[int] | None:
@@ -74,22 +84,41 @@ def _stamp(path: str) -> list[int] | None:
     return [stat.st_mtime_ns, stat.st_size]
 
 
-def fingerprint(path: Sequence[str]) -> list:
+def _info_stamps(folder: str) -> list[list[Any]]:
+    """``[name, folder stamp, entry_points.txt stamp]`` of each distribution's metadata in ``folder``."""
+    out = []
+    with os.scandir(folder) as listing:
+        for item in listing:
+            if item.name.lower().endswith(_INFO_SUFFIXES):
+                out.append([item.name, _stamp(item.path), _stamp(os.path.join(item.path, "entry_points.txt"))])
+    egg = os.path.join(folder, "EGG-INFO")  # the folder is an egg itself
+    if os.path.isdir(egg):
+        out.append(["EGG-INFO", _stamp(egg), _stamp(os.path.join(egg, "entry_points.txt"))])
+    return sorted(out)
+
+
+def import_path(path: Sequence[Any] | None = None) -> list[str]:
+    """``sys.path`` (or ``path``) as text: ``Path`` entries written out, others left out
+    (importlib.metadata skips what is not a path as well)."""
+    out = []
+    for entry in sys.path if path is None else path:
+        if isinstance(entry, (str, bytes, os.PathLike)):
+            out.append(os.fsdecode(entry))
+    return out
+
+
+def fingerprint(path: Sequence[str]) -> list[list[Any]]:
     """What the installed entry points depend on, as JSON-ready lists (see the module):
-    per import-path folder, its ``*.dist-info`` and ``*.egg-info`` with their stamps (an
-    install, removal or upgrade changes the names or a folder's stamp; writing anything
-    else there changes nothing); per zip file or missing folder, its own stamp."""
-    out: list = []
+    per import-path folder, its distributions' metadata folders with their stamps (an
+    install, removal or upgrade changes the names or a stamp; writing anything else
+    there changes nothing); per zip file or missing folder, its own stamp."""
+    out: list[list[Any]] = []
     for entry in path:
         folder = entry or "."
         try:
-            with os.scandir(folder) as listing:
-                infos = sorted([item.name, _stamp(item.path), _stamp(os.path.join(item.path, "entry_points.txt"))]
-                               for item in listing if item.name.endswith(_INFO_SUFFIXES))
+            out.append([entry, _info_stamps(folder)])
         except OSError:  # a zip file, or a folder that is not there
             out.append([entry, _stamp(folder)])
-        else:
-            out.append([entry, infos])
     return out
 
 
@@ -110,55 +139,74 @@ def _read_installed(groups: Iterable[str]) -> dict[str, list[InstalledEntryPoint
 
 
 def _cache_file(folder: Path) -> Path:
-    # One file per interpreter, environment and import path (the ``parsel`` script's and
-    # ``python -c``'s differ in their first entry): they do not overwrite each other's.
-    tag = zlib.crc32("\0".join([sys.executable, sys.version, *sys.path]).encode())
+    # (bytes: a folder name that is not valid UTF-8 still names one file)
+    tag = zlib.crc32(b"\0".join([os.fsencode(sys.executable), sys.version.encode()]))
     return folder / f"entry-points-{tag:08x}.json"
 
 
-def _load_cached(file: Path, key: list, groups: list[str]) -> dict[str, list[InstalledEntryPoint]] | None:
+def _valid_row(row: Any) -> bool:
+    return (isinstance(row, list) and len(row) == 4 and all(isinstance(v, str) for v in row[:2])
+            and all(v is None or isinstance(v, str) for v in row[2:]))
+
+
+def _read_file(file: Path) -> list[Any]:
+    """The file's entries (``[fingerprint, groups]``, most recent first); none when it is
+    missing, damaged or of another format."""
     try:
         data = json.loads(file.read_text(encoding="utf-8"))
-        if data["format"] != FORMAT or data["fingerprint"] != key or sorted(data["groups"]) != groups:
+    except (OSError, ValueError, RecursionError):
+        return []
+    if not isinstance(data, dict) or data.get("format") != FORMAT or not isinstance(data.get("entries"), list):
+        return []
+    return [e for e in data["entries"] if isinstance(e, list) and len(e) == 2 and isinstance(e[1], dict)]
+
+
+def _answer(entries: list[Any], key: list[list[Any]], groups: list[str]) -> dict[str, list[InstalledEntryPoint]] | None:
+    """The remembered groups for ``key``, if every one of them is there and well formed."""
+    for fingerprint_, stored in entries:
+        if fingerprint_ != key:
+            continue
+        if sorted(stored) != groups or not all(isinstance(rows, list) and all(map(_valid_row, rows))
+                                               for rows in stored.values()):
             return None
-        return {group: [InstalledEntryPoint(*row[:2], group, *row[2:4]) for row in rows]
-                for group, rows in data["groups"].items()}
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
+        return {group: [InstalledEntryPoint(row[0], row[1], group, row[2], row[3]) for row in rows]
+                for group, rows in stored.items()}
+    return None
 
 
-def _store(file: Path, key: list, found: dict[str, list[InstalledEntryPoint]]) -> None:
+def _store(file: Path, entries: list[Any], key: list[list[Any]], found: dict[str, list[InstalledEntryPoint]]) -> None:
     import tempfile
 
-    data = {"format": FORMAT, "fingerprint": key,
-            "groups": {g: [[e.name, e.value, e.distribution, e.version] for e in eps] for g, eps in found.items()}}
+    stored = {g: [[e.name, e.value, e.distribution, e.version] for e in eps] for g, eps in found.items()}
+    kept = [[key, stored]] + [e for e in entries if e[0] != key][:KEPT - 1]
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
         handle, temporary = tempfile.mkstemp(prefix=".entry-points-", suffix=".tmp", dir=file.parent)
         try:
             with os.fdopen(handle, "w", encoding="utf-8") as out:
-                json.dump(data, out)
+                json.dump({"format": FORMAT, "entries": kept}, out)
             os.replace(temporary, file)
         except BaseException:
             os.unlink(temporary)
             raise
-    except OSError:  # a read-only home, a full disk: the next process reads the metadata again
+    except (OSError, ValueError, TypeError):  # a read-only home, a full disk: the metadata is read next time
         pass
 
 
-def installed_entry_points(groups: Iterable[str], folder: Path | None | str = "default",
+def installed_entry_points(groups: Iterable[str], folder: str | os.PathLike | None = DEFAULT_FOLDER,
                            ) -> dict[str, list[InstalledEntryPoint]]:
     """The installed entry points of each group, by name; from the cache when the import
-    path has not changed since it was written (``folder``: the cache folder, ``None`` for
-    none, ``"default"`` for :func:`cache_dir`)."""
+    path has not changed since it was written (``folder``: the cache folder, by default
+    :func:`cache_dir`; ``None``: no cache)."""
     groups = sorted(set(groups))
-    folder = cache_dir() if folder == "default" else folder
+    folder = cache_dir() if folder is DEFAULT_FOLDER else folder
     if folder is None:
         return _read_installed(groups)
     file = _cache_file(Path(folder))
-    key = fingerprint(sys.path)
-    found = _load_cached(file, key, groups)
+    key = fingerprint(import_path())
+    entries = _read_file(file)
+    found = _answer(entries, key, groups)
     if found is None:
         found = _read_installed(groups)
-        _store(file, key, found)
+        _store(file, entries, key, found)
     return found

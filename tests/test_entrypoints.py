@@ -1,8 +1,11 @@
 """The entry-point cache answers what importlib.metadata answers, and notices installs."""
 
+import importlib
 import json
 import os
+import sys
 from importlib import metadata
+from pathlib import Path
 
 import pytest
 
@@ -27,6 +30,7 @@ def install(site, name: str, version: str, entry_points: str):
     info.mkdir()
     (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
     (info / "entry_points.txt").write_text(entry_points)
+    importlib.invalidate_caches()  # (importlib.metadata keeps folder listings by their time)
     return info
 
 
@@ -66,6 +70,7 @@ def test_installing_editing_and_removing_a_distribution_is_seen(tmp_path, monkey
     # an edit in place: same folder, same size, a later modification time
     text = (info / "entry_points.txt")
     text.write_text("[parsel.cache-test]\ndemo = demo_plugin:other\n")
+    importlib.invalidate_caches()
     stat = text.stat()
     os.utime(text, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000_000))
     assert rows(installed_entry_points(group, cache)[group[0]]) == [("demo", "demo_plugin:other", "demo_plugin", "1.0")]
@@ -73,6 +78,7 @@ def test_installing_editing_and_removing_a_distribution_is_seen(tmp_path, monkey
     # on a file system with coarse times: the same time, another size
     stat = text.stat()
     text.write_text("[parsel.cache-test]\ndemo = demo_plugin:others\n")
+    importlib.invalidate_caches()
     os.utime(text, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     assert rows(installed_entry_points(group, cache)[group[0]])[0][1] == "demo_plugin:others"
 
@@ -80,6 +86,7 @@ def test_installing_editing_and_removing_a_distribution_is_seen(tmp_path, monkey
     for item in info.iterdir():
         item.unlink()
     info.rmdir()
+    importlib.invalidate_caches()
     install(site, "demo_plugin", "2.0", "[parsel.cache-test]\ndemo = demo_plugin:hooks\n")
     assert rows(installed_entry_points(group, cache)[group[0]]) == [("demo", "demo_plugin:hooks", "demo_plugin", "2.0")]
 
@@ -91,11 +98,58 @@ def test_installing_editing_and_removing_a_distribution_is_seen(tmp_path, monkey
 def test_a_damaged_cache_file_is_read_again_and_rewritten(tmp_path):
     first = installed_entry_points(GROUPS, tmp_path)
     (file,) = tmp_path.glob("entry-points-*.json")
-    for damage in ("{not json", json.dumps({"format": 1}), json.dumps([1, 2]), "",
-                   json.dumps({"format": entrypoints.FORMAT, "fingerprint": "x", "groups": {}})):
+    good = json.loads(file.read_text())
+    (key, stored), = good["entries"]
+
+    def with_groups(groups):
+        return json.dumps({**good, "entries": [[key, groups]]})
+
+    damaged = ["{not json", "", "[1, 2]", json.dumps({"format": 1}), "[" * 100_000,
+               json.dumps({**good, "entries": {"a": 1}}), json.dumps({**good, "entries": [[key]]}),
+               json.dumps({**good, "entries": [["another path", stored]]}),
+               # the right fingerprint, rows of the wrong shape
+               with_groups([]), with_groups({**stored, "parsel": "abcd"}),
+               with_groups({**stored, "parsel": [[1, "x", None, None]]}),
+               with_groups({**stored, "parsel": [["a", "x", None]]}),
+               with_groups({**stored, "parsel": [["a", ["x"], None, None]]}),
+               with_groups({g: rows for g, rows in stored.items() if g != "parsel"})]
+    for damage in damaged:
         file.write_text(damage)
-        assert installed_entry_points(GROUPS, tmp_path) == first
-        assert json.loads(file.read_text())["groups"]["parsel"]
+        assert installed_entry_points(GROUPS, tmp_path) == first, damage[:80]
+        assert json.loads(file.read_text())["entries"][0] == [key, stored]
+
+
+def test_unusual_import_path_entries_are_read_as_importlib_reads_them(tmp_path, monkeypatch):
+    odd = os.fsdecode(bytes(tmp_path) + b"/\xff-not-utf-8")
+    monkeypatch.setattr(sys, "path", [Path(tmp_path), odd, *sys.path])
+    for _ in ("cold", "warm"):
+        assert rows(installed_entry_points(["parsel"], tmp_path / "cache")["parsel"]) == expected("parsel")
+
+
+def test_the_file_keeps_the_last_import_paths(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    for i in range(entrypoints.KEPT + 3):
+        monkeypatch.syspath_prepend(str(tmp_path / f"path-{i}"))
+        installed_entry_points(["parsel"], cache)
+    (file,) = cache.glob("entry-points-*.json")
+    entries = json.loads(file.read_text())["entries"]
+    assert len(entries) == entrypoints.KEPT
+    assert entries[0][0] == entrypoints.fingerprint(entrypoints.import_path())
+
+
+def test_an_egg_on_the_import_path_is_watched(tmp_path, monkeypatch):
+    egg = tmp_path / "demo_egg-1.0-py3.11.egg"
+    (egg / "EGG-INFO").mkdir(parents=True)
+    (egg / "EGG-INFO" / "PKG-INFO").write_text("Metadata-Version: 1.1\nName: demo_egg\nVersion: 1.0\n")
+    text = egg / "EGG-INFO" / "entry_points.txt"
+    text.write_text("[parsel.cache-test]\na = demo_egg:a\n")
+    monkeypatch.syspath_prepend(str(egg))
+    group, cache = ["parsel.cache-test"], tmp_path / "cache"
+    assert [e.name for e in installed_entry_points(group, cache)[group[0]]] == ["a"]
+    text.write_text("[parsel.cache-test]\na = demo_egg:a\nb = demo_egg:b\n")
+    importlib.invalidate_caches()
+    assert [e.name for e in installed_entry_points(group, cache)[group[0]]] == ["a", "b"]
+    assert rows(installed_entry_points(group, cache)[group[0]]) == expected(group[0])
 
 
 def test_a_cache_folder_that_cannot_be_written_is_no_error(tmp_path):
@@ -109,7 +163,10 @@ def test_the_cache_folder_comes_from_the_environment(tmp_path):
     assert cache_dir({"PARSEL_CACHE_DIR": str(tmp_path)}) == tmp_path
     assert cache_dir({"PARSEL_CACHE_DIR": ""}) is None
     assert cache_dir({"XDG_CACHE_HOME": str(tmp_path)}) == tmp_path / "parsel"
-    assert cache_dir({}) == entrypoints.Path(os.path.expanduser("~")) / ".cache" / "parsel"
+    home = Path(os.path.expanduser("~")) / ".cache" / "parsel"
+    assert cache_dir({}) == home
+    assert cache_dir({"XDG_CACHE_HOME": "relative/cache"}) == home  # (relative: ignored, as XDG asks)
+    assert cache_dir({"PARSEL_CACHE_DIR": "~/elsewhere"}) == Path(os.path.expanduser("~/elsewhere"))
 
 
 def test_the_cache_turned_off_writes_nothing(tmp_path, monkeypatch):

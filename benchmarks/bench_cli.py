@@ -16,6 +16,12 @@ byte for byte. A floor process (the interpreter and numpy, started as ``parsel``
 them) is timed between the runs of the goal's edit: its median shows how fast the
 machine was, so runs on different days compare by what the edit costs above it.
 
+CPU times of whole processes move by a fifth between two runs a minute apart on a busy
+machine. Where Linux ``perf`` can count a process's user-space instructions, each
+command and side is also run under ``perf stat -e instructions:u`` (three runs, after
+the timed ones): a count that barely moves with the load, printed with its ratio, so a
+change of a few percent can be told from noise.
+
     python benchmarks/bench_cli.py [--base REV] [--runs 7]
 
 ``--base`` defaults to the commit where this branch left ``main``; once merged, name the
@@ -108,6 +114,36 @@ def run_once(parsel: list[str], argv: list[str], env: dict[str, str], cwd: Path)
     return usage.ru_utime + usage.ru_stime, wall
 
 
+#: ``perf stat`` counting the user-space instructions of the process it starts, in CSV.
+PERF = ["perf", "stat", "-x,", "-e", "instructions:u"]
+#: Runs under ``perf`` per command and side (the counts move by well under 1%).
+COUNTED_RUNS = 3
+
+
+def perf_count(text: str) -> float | None:
+    """The instruction count in ``perf stat -x,`` output (``None``: not counted, e.g.
+    ``<not supported>`` where ``perf_event_paranoid`` forbids it)."""
+    for line in text.splitlines():
+        fields = line.split(",")
+        if len(fields) > 2 and fields[2].startswith("instructions"):
+            try:
+                return float(fields[0])
+            except ValueError:
+                return None
+    return None
+
+
+def count_once(parsel: list[str], argv: list[str], env: dict[str, str], cwd: Path) -> float | None:
+    """User-space instructions of one ``parsel`` process, or ``None`` where perf cannot count."""
+    with tempfile.NamedTemporaryFile("r", suffix=".perf") as out:
+        try:
+            done = subprocess.run([*PERF, "-o", out.name, "--", *parsel, *argv], env=env, cwd=cwd,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        except OSError:  # no perf
+            return None
+        return perf_count(out.read()) if done.returncode == 0 else None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--base", help="commit to compare with (default: merge-base of HEAD and main)")
@@ -153,6 +189,15 @@ def main() -> None:
             wall = {n: statistics.median(w for _, w in results[(label, n)]) for n in sides}
             print(f"{label:<44}{cpu['base']:>9.3f}s{cpu['this']:>9.3f}s{cpu['base'] / cpu['this']:>7.1f}x"
                   f"{wall['base']:>10.3f}s{wall['this']:>10.3f}s{wall['base'] / wall['this']:>7.1f}x")
+        counted = count_instructions(entries, envs, sides, work)
+        if counted:
+            print(f"\n{'command':<44}{'instr base':>12}{'instr this':>12}{'ratio':>8}")
+            for label in COMMANDS:
+                base_count, this_count = counted[(label, "base")], counted[(label, "this")]
+                print(f"{label:<44}{base_count / 1e6:>11.1f}M{this_count / 1e6:>11.1f}M"
+                      f"{base_count / this_count:>7.3f}x")
+        else:
+            print("\ninstructions: not counted (Linux perf missing or not permitted)")
         edits = [number for number, template in enumerate(COMMANDS.values()) if "{out}" in template]
         same = all((work / f"out-base-{n}" / "program.json").read_bytes()
                    == (work / f"out-this-{n}" / "program.json").read_bytes() for n in edits)
@@ -164,6 +209,22 @@ def main() -> None:
         print(f"floor: python and numpy as parsel starts them, timed between the edit runs: {lowest:.3f} s CPU; "
               f"parsel edit chair ... above it: {edit - lowest:.3f} s ({edit / lowest:.1f}x the floor)")
         print("CPU: user + system time of the process (os.wait4); medians; ratio = base / this")
+        if counted:
+            print(f"instr: user-space instructions (perf stat -e instructions:u), median of {COUNTED_RUNS} runs")
+
+
+def count_instructions(entries: dict[str, list[str]], envs: dict[str, dict[str, str]], sides: dict[str, Path],
+                       work: Path) -> dict[tuple[str, str], float] | None:
+    """Median instructions per command and side, or ``None`` where perf cannot count."""
+    counted: dict[tuple[str, str], float] = {}
+    for number, (label, template) in enumerate(COMMANDS.items()):
+        for name in sides:
+            argv = [a.format(out=work / f"counted-{name}-{number}") for a in template]
+            counts = [count_once(entries[name], argv, envs[name], work) for _ in range(COUNTED_RUNS)]
+            if any(c is None for c in counts):
+                return None
+            counted[(label, name)] = statistics.median(counts)
+    return counted
 
 
 if __name__ == "__main__":

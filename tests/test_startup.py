@@ -141,21 +141,30 @@ def test_the_networkx_view_is_built_on_first_use_and_agrees_with_neighbours():
     assert {key for _, _, key in graph.edges(keys=True)} == set(shape.relations)
 
 
-def blas_threads_of_command(args: list[str], env: dict[str, str]) -> list[int]:
-    """The BLAS pool sizes numpy had in a ``parsel`` process (the console entry, run the
-    way the installed script runs it), read when it exits."""
-    probe = ("import atexit, json, sys\n"
+def reported_at_exit(args: list[str], report: str, env: dict[str, str], cwd=None) -> str:
+    """What ``report`` (Python code, run when the process exits) wrote on a line of its
+    own after ``REPORT `` to stderr, in a ``parsel`` process (the console entry, run the
+    way the installed script runs it) given ``args``."""
+    probe = ("import atexit, sys\n"
              "def report():\n"
-             "    from threadpoolctl import threadpool_info\n"
-             "    sizes = [i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas']\n"
-             "    print('BLAS ' + json.dumps(sizes), file=sys.stderr)\n"
+             + "".join(f"    {line}\n" for line in report.splitlines()) +
              "atexit.register(report)\n"
              f"sys.argv = ['parsel', *{args!r}]\n"
              "from parsel_core.cli import console\n"
              "console()\n")
-    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env)
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env,
+                            cwd=cwd)
     assert result.returncode == 0, result.stderr
-    return json.loads(result.stderr.rsplit("BLAS ", 1)[1])
+    return result.stderr.rsplit("REPORT ", 1)[1]
+
+
+def blas_threads_of_command(args: list[str], env: dict[str, str]) -> list[int]:
+    """The BLAS pool sizes numpy had in a ``parsel`` process, read when it exits."""
+    report = ("import json\n"
+              "from threadpoolctl import threadpool_info\n"
+              "sizes = [i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas']\n"
+              "print('REPORT ' + json.dumps(sizes), file=sys.stderr)")
+    return json.loads(reported_at_exit(args, report, env))
 
 
 def clean_environment() -> dict[str, str]:
@@ -200,20 +209,12 @@ def test_the_command_reads_no_package_metadata_and_no_thread_library_once_cached
     """The ``parsel`` program with its BLAS started on one thread needs no threadpoolctl,
     and with the entry points cached (entrypoints.py) no importlib.metadata (nor the email
     package it parses metadata with); without a parsel.toml, no TOML parser."""
-    probe = ("import atexit, json, sys\n"
-             "def report():\n"
-             "    print('MODULES ' + json.dumps(sorted(sys.modules)), file=sys.stderr)\n"
-             "atexit.register(report)\n"
-             f"sys.argv = ['parsel', 'edit', 'chair', 'make the chair wider', '-o', {str(tmp_path / 'out')!r}]\n"
-             "from parsel_core.cli import console\n"
-             "console()\n")
+    args = ["edit", "chair", "make the chair wider", "-o", str(tmp_path / "out")]
+    report = "import json\nprint('REPORT ' + json.dumps(sorted(sys.modules)), file=sys.stderr)"
     env = {**clean_environment(), "PARSEL_CACHE_DIR": str(tmp_path / "cache")}
     env.pop("PARSEL_CONFIG", None)
     for run in ("cold", "warm"):
-        result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, env=env,
-                                cwd=tmp_path)
-        assert result.returncode == 0, result.stderr
-        modules = set(json.loads(result.stderr.rsplit("MODULES ", 1)[1]))
+        modules = set(json.loads(reported_at_exit(args, report, env, cwd=tmp_path)))
         assert not modules & {"threadpoolctl", "tomllib"}, run
         assert ("importlib.metadata" in modules) == (run == "cold")
         assert "email" not in {m.split(".")[0] for m in modules} or run == "cold"

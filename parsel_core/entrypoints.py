@@ -175,21 +175,15 @@ def _answer(entries: list[Any], key: list[list[Any]], groups: list[str]) -> dict
 
 
 def _store(file: Path, entries: list[Any], key: list[list[Any]], found: dict[str, list[InstalledEntryPoint]]) -> None:
-    import tempfile
+    from parsel_core.errors import ParselError
+    from parsel_core.io import atomic_write_text
 
     stored = {g: [[e.name, e.value, e.distribution, e.version] for e in eps] for g, eps in found.items()}
     kept = [[key, stored]] + [e for e in entries if e[0] != key][:KEPT - 1]
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(prefix=".entry-points-", suffix=".tmp", dir=file.parent)
-        try:
-            with os.fdopen(handle, "w", encoding="utf-8") as out:
-                json.dump({"format": FORMAT, "entries": kept}, out)
-            os.replace(temporary, file)
-        except BaseException:
-            os.unlink(temporary)
-            raise
-    except (OSError, ValueError, TypeError):  # a read-only home, a full disk: the metadata is read next time
+        atomic_write_text(file, json.dumps({"format": FORMAT, "entries": kept}))
+    except (OSError, ParselError):  # a read-only home, a full disk: the metadata is read next time
         pass
 
 

@@ -31,8 +31,7 @@ def test_a_machine_without_perf_counts_nothing(tmp_path, monkeypatch):
 def test_a_process_is_counted_where_perf_can_count(tmp_path):
     if shutil.which("perf") is None:
         pytest.skip("no perf on this machine")
-    probe = subprocess.run(["perf", "stat", "-x,", "-e", "instructions:u", "--", "true"], capture_output=True,
-                           text=True)
+    probe = subprocess.run([*bench_cli.PERF, "--", "true"], capture_output=True, text=True)
     if probe.returncode != 0 or bench_cli.perf_count(probe.stderr) is None:
         pytest.skip("perf may not count here")
     count = bench_cli.count_once([sys.executable, "-c", "pass"], [], {}, tmp_path)

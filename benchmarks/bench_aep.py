@@ -11,7 +11,9 @@ AEP program versus re-solving placements with the ``online`` solver.
 With ``--baseline REV`` the random-seed requests are also solved side by side by REV's
 ``plugins/parsel-aep`` and the working tree (``bench_aep_speed.py``'s alternating worker
 processes): both sides' CPU median and p95 from the same run, and whether every program
-is the same (exit status 1 if not); ``--baseline-core`` takes REV's ``parsel_core`` too.
+is the same (exit status 1 if not); ``--baseline-core`` takes REV's ``parsel_core`` too,
+``--baseline-tree`` its whole tree (core and every plugin: for a revision whose core the
+working tree's other plugins no longer run on).
 
 Run: ``python benchmarks/bench_aep.py [--shapes 100] [--data ../shared/data/shapeassembly] [--baseline REV]``
 """
@@ -182,7 +184,8 @@ def side_by_side(args: argparse.Namespace, backend: str, extra: dict) -> bool:
     for case in todo:
         case["options"] = {**extra, "backend": backend}
     print(f"\nside by side with {args.baseline} ({backend}, {len(todo)} requests, alternating workers):", flush=True)
-    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, core=args.baseline_core)
+    scope = "tree" if args.baseline_tree else "core" if args.baseline_core else "aep"
+    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, scope=scope)
     print(f"{'solver':<22}{'median s':>10}{'p95 s':>9}{'max s':>9}{'total s':>9}")
     for name, label in (("old", args.baseline), ("new", "working tree")):
         median, p95, most, total = found.figures(name)
@@ -208,8 +211,11 @@ def main() -> None:
     parser.add_argument("--baseline", metavar="REV",
                         help="also solve the random-seed requests with REV's plugins/parsel-aep, side by side "
                              "with the working tree in two worker processes (bench_aep_speed.py), and compare")
-    parser.add_argument("--baseline-core", action="store_true",
-                        help="with --baseline, take parsel_core from REV too (relations and ops as they were)")
+    taken = parser.add_mutually_exclusive_group()
+    taken.add_argument("--baseline-core", action="store_true",
+                       help="with --baseline, take parsel_core from REV too (relations and ops as they were)")
+    taken.add_argument("--baseline-tree", action="store_true",
+                       help="with --baseline, take REV's whole tree: its core and every plugin")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))
     extra = parse_options(args.option, "--option")

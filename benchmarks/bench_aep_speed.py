@@ -5,7 +5,8 @@ seeds spread over ``bench_aep.py``'s designer shapes, and the seeds of the prope
 tests in ``plugins/parsel-aep/tests/test_properties.py``) is solved by two worker
 processes, one importing ``parsel_aep`` from the working tree and one from a baseline
 revision (``git archive`` of ``plugins/parsel-aep``, with ``--core`` of ``parsel_core`` too,
-into a temporary folder, put first on ``PYTHONPATH``). The requests alternate between the
+with ``--tree`` of the whole tree, core and every plugin, into a temporary folder, put
+first on ``PYTHONPATH``). The requests alternate between the
 two workers, so a busy machine slows both alike; each request's CPU time is
 ``time.process_time`` inside its worker.
 
@@ -16,7 +17,7 @@ the samples) and the exit status is 1. Counts of work done (``WORK_COUNTS``: can
 screened, searches proved hopeless without screening) may differ; their totals are
 printed at the end.
 
-    python benchmarks/bench_aep_speed.py [--baseline REV [--core]] [--random 40] [--designer 40]
+    python benchmarks/bench_aep_speed.py [--baseline REV [--core | --tree]] [--random 40] [--designer 40]
         [--no-properties] [--save DIR] [--only LABEL-SUBSTRING]
 
 Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
@@ -162,14 +163,28 @@ class Worker:
         self.process.wait()
 
 
-def baseline_tree(revision: str, into: Path, core: bool = False) -> str:
-    """``plugins/parsel-aep`` at ``revision`` (with ``core``, ``parsel_core`` too), extracted
-    into ``into``; the ``PYTHONPATH`` to import them from."""
-    paths = ["plugins/parsel-aep", *(["parsel_core"] if core else [])]
+#: What a baseline takes from its revision (:func:`baseline_tree`).
+SCOPES = ("aep", "core", "tree")
+
+
+def baseline_tree(revision: str, into: Path, scope: str = "aep") -> str:
+    """What ``revision`` solves with, extracted into ``into``; the ``PYTHONPATH`` to import it from.
+
+    ``scope``: ``aep``, only ``plugins/parsel-aep``; ``core``, ``parsel_core`` too; ``tree``,
+    the whole tree, core and every plugin folder. The installed entry points still name the
+    plugins (a plugin ``revision`` lacks loads from the working tree), so ``tree`` compares
+    with a revision whose core the working tree's other plugins no longer run on."""
+    if scope not in SCOPES:
+        raise ValueError(f"baseline scope {scope!r}: expected one of {', '.join(SCOPES)}")
+    paths = {"aep": ["plugins/parsel-aep"], "core": ["plugins/parsel-aep", "parsel_core"], "tree": []}[scope]
     archive = subprocess.run(["git", "archive", revision, *paths], cwd=ROOT, check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
-    return os.pathsep.join([str(into / "plugins" / "parsel-aep"), *([str(into)] if core else [])])
+    if scope == "tree":
+        plugins = sorted(p for p in (into / "plugins").iterdir() if (p / "pyproject.toml").is_file())
+    else:
+        plugins = [into / "plugins" / "parsel-aep"]
+    return os.pathsep.join([*map(str, plugins), *([str(into)] if scope != "aep" else [])])
 
 
 # -- comparing ---------------------------------------------------------------------------
@@ -225,8 +240,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--baseline", help="git revision to compare with (its plugins/parsel-aep)")
-    parser.add_argument("--core", action="store_true",
-                        help="take parsel_core from the baseline too (for changes to relations or ops)")
+    taken = parser.add_mutually_exclusive_group()
+    taken.add_argument("--core", action="store_true",
+                       help="take parsel_core from the baseline too (for changes to relations or ops)")
+    taken.add_argument("--tree", action="store_true",
+                       help="take the baseline's whole tree, core and every plugin (for an older revision)")
     parser.add_argument("--random", type=int, default=40, help="first random-seed requests of bench_aep")
     parser.add_argument("--designer", type=int, default=40, help="designer seeds, spread over the shapes")
     parser.add_argument("--no-properties", action="store_true", help="leave out the property-test seeds")
@@ -244,7 +262,7 @@ def main() -> None:
     todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
     found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference,
-                    core=args.core)
+                    scope="tree" if args.tree else "core" if args.core else "aep")
     print()
     found.print_summary()
     if found.mismatches:
@@ -280,15 +298,15 @@ class Comparison:
 
 
 def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] | None = None,
-            save: Path | None = None, reference: Path | None = None, echo=None, core: bool = False) -> Comparison:
+            save: Path | None = None, reference: Path | None = None, echo=None, scope: str = "aep") -> Comparison:
     """Solve ``todo`` (:func:`cases`) in a worker on the working tree and, with ``baseline``,
-    in one on that revision's ``plugins/parsel-aep`` (and ``parsel_core`` with ``core``),
+    in one on what that revision solves with (:func:`baseline_tree`'s ``scope``),
     alternating; ``echo`` gets a line per request (printed by default)."""
     echo = echo or (lambda line: print(line, flush=True))
     with tempfile.TemporaryDirectory() as tmp:
         sides = [Worker("new", None, env)]
         if baseline:
-            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp), core)))
+            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp), scope)))
         times: dict[str, list[float]] = {w.name: [] for w in sides}
         mismatches = []
         work: dict[str, dict[str, int]] = {}

@@ -57,12 +57,27 @@ def test_a_baseline_revision_solves_beside_the_working_tree():
     assert all(t > 0 for side in found.times.values() for t in side)
 
 
-def test_a_baseline_with_its_core_imports_both_from_the_revision(tmp_path):
+#: What each baseline scope imports from the revision: the rest comes from the working tree.
+FROM_REVISION = {
+    "core": ("parsel_aep", "parsel_core.relations"),
+    "tree": ("parsel_aep", "parsel_core.relations", "parsel_relations", "parsel_shapeassembly", "parsel_offline"),
+}
+
+
+@pytest.mark.parametrize("scope", sorted(FROM_REVISION))
+def test_a_baseline_imports_what_its_scope_takes_from_the_revision(tmp_path, scope):
     if subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True).returncode:
         pytest.skip("not a git checkout")
-    path = bench_aep_speed.baseline_tree("HEAD", tmp_path, core=True)
-    code = "import parsel_aep, parsel_core.relations as r; print(parsel_aep.__file__); print(r.__file__)"
-    found = subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": path},
-                           cwd=tmp_path, capture_output=True, text=True, check=True).stdout.split()
-    assert all(Path(f).is_relative_to(tmp_path) for f in found), found
-    assert bench_aep_speed.compare(requests()[:1], baseline="HEAD", echo=lambda line: None, core=True).compared
+    path = bench_aep_speed.baseline_tree("HEAD", tmp_path, scope)
+    names = FROM_REVISION[scope] + (() if scope == "tree" else ("parsel_shapeassembly",))
+    code = f"import importlib; print(*(importlib.import_module(n).__file__ for n in {names!r}))"
+    found = dict(zip(names, subprocess.run([sys.executable, "-c", code], env={**os.environ, "PYTHONPATH": path},
+                                           cwd=tmp_path, capture_output=True, text=True, check=True).stdout.split()))
+    taken = {name for name, file in found.items() if Path(file).is_relative_to(tmp_path)}
+    assert taken == set(FROM_REVISION[scope]), found
+    assert bench_aep_speed.compare(requests()[:1], baseline="HEAD", echo=lambda line: None, scope=scope).compared
+
+
+def test_an_unknown_baseline_scope_is_refused(tmp_path):
+    with pytest.raises(ValueError, match="baseline scope 'plugins'"):
+        bench_aep_speed.baseline_tree("HEAD", tmp_path, "plugins")

@@ -184,8 +184,7 @@ def side_by_side(args: argparse.Namespace, backend: str, extra: dict) -> bool:
     for case in todo:
         case["options"] = {**extra, "backend": backend}
     print(f"\nside by side with {args.baseline} ({backend}, {len(todo)} requests, alternating workers):", flush=True)
-    scope = "tree" if args.baseline_tree else "core" if args.baseline_core else "aep"
-    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, scope=scope)
+    found = bench_aep_speed.compare(todo, args.baseline, echo=lambda line: None, scope=args.baseline_scope)
     print(f"{'solver':<22}{'median s':>10}{'p95 s':>9}{'max s':>9}{'total s':>9}")
     for name, label in (("old", args.baseline), ("new", "working tree")):
         median, p95, most, total = found.figures(name)
@@ -212,9 +211,9 @@ def main() -> None:
                         help="also solve the random-seed requests with REV's plugins/parsel-aep, side by side "
                              "with the working tree in two worker processes (bench_aep_speed.py), and compare")
     taken = parser.add_mutually_exclusive_group()
-    taken.add_argument("--baseline-core", action="store_true",
+    taken.add_argument("--baseline-core", dest="baseline_scope", action="store_const", const="core", default="aep",
                        help="with --baseline, take parsel_core from REV too (relations and ops as they were)")
-    taken.add_argument("--baseline-tree", action="store_true",
+    taken.add_argument("--baseline-tree", dest="baseline_scope", action="store_const", const="tree",
                        help="with --baseline, take REV's whole tree: its core and every plugin")
     args = parser.parse_args()
     skip = set(filter(None, args.skip.split(",")))

@@ -163,8 +163,9 @@ class Worker:
         self.process.wait()
 
 
-#: What a baseline takes from its revision (:func:`baseline_tree`).
-SCOPES = ("aep", "core", "tree")
+#: What a baseline takes from its revision, by scope (:func:`baseline_tree`): the paths
+#: extracted (none: the whole tree).
+TAKEN = {"aep": ["plugins/parsel-aep"], "core": ["plugins/parsel-aep", "parsel_core"], "tree": []}
 
 
 def baseline_tree(revision: str, into: Path, scope: str = "aep") -> str:
@@ -174,9 +175,9 @@ def baseline_tree(revision: str, into: Path, scope: str = "aep") -> str:
     the whole tree, core and every plugin folder. The installed entry points still name the
     plugins (a plugin ``revision`` lacks loads from the working tree), so ``tree`` compares
     with a revision whose core the working tree's other plugins no longer run on."""
-    if scope not in SCOPES:
-        raise ValueError(f"baseline scope {scope!r}: expected one of {', '.join(SCOPES)}")
-    paths = {"aep": ["plugins/parsel-aep"], "core": ["plugins/parsel-aep", "parsel_core"], "tree": []}[scope]
+    if scope not in TAKEN:
+        raise ValueError(f"baseline scope {scope!r}: expected one of {', '.join(TAKEN)}")
+    paths = TAKEN[scope]
     archive = subprocess.run(["git", "archive", revision, *paths], cwd=ROOT, check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
@@ -241,9 +242,9 @@ def main() -> None:
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--baseline", help="git revision to compare with (its plugins/parsel-aep)")
     taken = parser.add_mutually_exclusive_group()
-    taken.add_argument("--core", action="store_true",
+    taken.add_argument("--core", dest="scope", action="store_const", const="core", default="aep",
                        help="take parsel_core from the baseline too (for changes to relations or ops)")
-    taken.add_argument("--tree", action="store_true",
+    taken.add_argument("--tree", dest="scope", action="store_const", const="tree",
                        help="take the baseline's whole tree, core and every plugin (for an older revision)")
     parser.add_argument("--random", type=int, default=40, help="first random-seed requests of bench_aep")
     parser.add_argument("--designer", type=int, default=40, help="designer seeds, spread over the shapes")
@@ -262,7 +263,7 @@ def main() -> None:
     todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
     found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference,
-                    scope="tree" if args.tree else "core" if args.core else "aep")
+                    scope=args.scope)
     print()
     found.print_summary()
     if found.mismatches:

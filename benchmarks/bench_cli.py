@@ -25,7 +25,9 @@ change of a few percent can be told from noise.
     python benchmarks/bench_cli.py [--base REV] [--runs 7]
 
 ``--base`` defaults to the commit where this branch left ``main``; once merged, name the
-commit to compare with (82a1e13 is the last one before lazy start-up).
+commit to compare with (82a1e13 is the last one before lazy start-up). The base runs with
+its own plugins only: one added since (installed here, its entry point found by the base's
+core) is left out through ``PARSEL_PLUGINS``, as the base ran without it.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ import sys
 import tempfile
 import time
 import tomllib
+from importlib import metadata
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -72,11 +75,39 @@ def source_path(tree: Path) -> str:
     return os.pathsep.join([str(tree), *(str(p.parent) for p in sorted(tree.glob("plugins/*/pyproject.toml")))])
 
 
-def side_env(tree: Path, pycache: Path) -> dict[str, str]:
+def tree_plugins(tree: Path) -> set[str]:
+    """The ``parsel`` entry-point names that ``tree``'s own plugin folders declare."""
+    names: set[str] = set()
+    for pyproject in tree.glob("plugins/*/pyproject.toml"):
+        project = tomllib.loads(pyproject.read_text()).get("project", {})
+        names.update(project.get("entry-points", {}).get("parsel", {}))
+    return names
+
+
+def installed_plugins() -> set[str]:
+    """The ``parsel`` entry-point names installed in this environment (both sides load from it)."""
+    return {ep.name for ep in metadata.entry_points(group="parsel")}
+
+
+def side_env(tree: Path, pycache: Path, plugins: set[str] | None = None) -> dict[str, str]:
+    """The side's environment: ``tree`` first on ``PYTHONPATH``, the caller's ``PARSEL_*``
+    settings left out and, with ``plugins``, only those entry points loaded
+    (``PARSEL_PLUGINS``)."""
     env = {k: v for k, v in os.environ.items()
            if not k.startswith("PARSEL_") and k not in ("PYTHONDONTWRITEBYTECODE", "PYTHONPATH")}
     env.update({"PYTHONPATH": source_path(tree), "PYTHONPYCACHEPREFIX": str(pycache)})
+    if plugins is not None:
+        env["PARSEL_PLUGINS"] = ",".join(sorted(plugins))
     return env
+
+
+def base_plugins(tree: Path, installed: set[str]) -> set[str] | None:
+    """What the base side may load: ``None`` (every installed plugin) when ``tree`` has them
+    all, else the installed ones it has. A plugin added since the base is installed in this
+    environment and found through its entry point, but its code needs the newer core: the
+    base ran without it."""
+    own = tree_plugins(tree)
+    return None if installed <= own else installed & own
 
 
 def check_sources(env: dict[str, str], tree: Path, cwd: Path) -> None:
@@ -161,7 +192,9 @@ def main() -> None:
         (tmp_path / "base").mkdir()
         extract(base, tmp_path / "base")
         sides = {"base": tmp_path / "base", "this": ROOT}
-        envs = {name: side_env(tree, tmp_path / f"pycache-{name}") for name, tree in sides.items()}
+        installed = installed_plugins()
+        plugins = {"base": base_plugins(sides["base"], installed), "this": None}
+        envs = {name: side_env(tree, tmp_path / f"pycache-{name}", plugins[name]) for name, tree in sides.items()}
         entries = {name: entry_point(tree) for name, tree in sides.items()}
         work = tmp_path / "work"
         work.mkdir()
@@ -171,6 +204,8 @@ def main() -> None:
         print(f"base {base} vs this checkout {head}{dirty}; {args.runs} runs per command and side, alternating; "
               f"python {sys.version.split()[0]}, {os.cpu_count()} CPUs, load average "
               f"{os.getloadavg()[0]:.1f}")
+        if plugins["base"] is not None:
+            print(f"base {base} runs without the plugins added since: {', '.join(sorted(installed - plugins['base']))}")
         results: dict[tuple[str, str], list[tuple[float, float]]] = {}
         floor: list[tuple[float, float]] = []
         for number, (label, template) in enumerate(COMMANDS.items()):

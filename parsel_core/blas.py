@@ -5,7 +5,9 @@ OpenBLAS starts a thread per core for every product. The cage products of a slid
 and lose much on a busy machine: a step of the 437k-vertex chair took a median 14 ms on
 one thread against 190-310 ms on the default threads next to two busy processes
 (``benchmarks/bench_deform.py``, docs/meshes.md). One thread also makes the rounding the
-same on every machine, so AEP writes the same program bit for bit everywhere.
+same whatever the number of cores, so AEP writes the same program on a machine of two
+cores as on one of sixteen. It does not make it the same on every processor: OpenBLAS
+picks its kernels by the CPU, and their products round differently (docs/aep.md).
 
 A process that starts OpenBLAS with several threads also pays for them outside any
 product: the ``parsel`` command sets the thread variables to one before numpy loads

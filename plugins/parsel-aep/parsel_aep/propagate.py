@@ -1312,8 +1312,9 @@ def propagate(request: SolveRequest) -> SolveResult:
     BLAS runs on one thread throughout: the systems are small (at most a few hundred
     rows), OpenBLAS's threads cost many times their work in CPU time on a busy machine,
     and their rounding depends on the thread count, so one thread also makes the
-    program the same bits on every machine. The cyclic garbage collector runs less
-    often meanwhile (parsel_core.collector)."""
+    program the same bits whatever the number of cores (not whatever the processor:
+    docs/aep.md). The cyclic garbage collector runs less often meanwhile
+    (parsel_core.collector)."""
     with one_blas_thread(), fewer_collections():
         return Propagation(request).run()
 

@@ -18,10 +18,17 @@ screened, searches proved hopeless without screening) may differ; their totals a
 printed at the end.
 
     python benchmarks/bench_aep_speed.py [--baseline REV [--core | --tree]] [--random 40] [--designer 40]
-        [--no-properties] [--save DIR] [--only LABEL-SUBSTRING]
+        [--no-properties] [--save DIR] [--only LABEL-SUBSTRING] [--split [--goal 0.5]]
 
 Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
 outputs, one JSON file per request).
+
+``--split`` also times, in each worker, the CPU spent inside ``numpy.linalg``'s
+factorisations and solves (LAPACK) and inside the joint pass, request by request, and
+prints where the time goes: the median and p95 as measured, without the joint pass,
+without LAPACK and of LAPACK alone, and how many times faster the work outside LAPACK
+would have to be for a p95 of ``--goal`` seconds (with the same LAPACK calls, as the same
+programs need).
 """
 
 from __future__ import annotations
@@ -36,7 +43,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -105,8 +112,9 @@ def cases(random: int, designer: int, properties: bool, data: Path, shapes: int 
 
 # -- a worker: solves the requests it is sent ------------------------------------------
 
-def worker() -> None:
-    """Read one request (JSON) a line on stdin, answer one result (JSON) a line on stdout."""
+def worker(split: bool = False) -> None:
+    """Read one request (JSON) a line on stdin, answer one result (JSON) a line on stdout;
+    ``split``: with its :class:`SplitClock` figures."""
     answer = sys.stdout
     sys.stdout = sys.stderr  # nothing the solver prints may reach the answers
     import parsel_aep
@@ -119,11 +127,16 @@ def worker() -> None:
     shapes: dict[str, object] = {}
     aep = solvers()["aep"]
     print(f"worker {os.getpid()}: parsel_aep from {Path(parsel_aep.__file__).parent}", file=sys.stderr)
+    split_clock = SplitClock() if split else None
+    if split_clock:
+        split_clock.install()
     for line in sys.stdin:
         case = json.loads(line)
         shape = shapes.get(case["spec"])
         if shape is None:
             shape = shapes[case["spec"]] = load_shape(case["spec"])
+        if split_clock:
+            split_clock.reset()
         clock = time.process_time()
         try:
             request = SolveRequest(shape, Program.from_text(case["seed"]), breaks=tuple(case["breaks"]),
@@ -137,17 +150,139 @@ def worker() -> None:
             stats = {k: v for k, v in result.stats.items() if k != "time_s"}
             out = {"program": result.program.to_json(), "rejected": list(result.rejected),
                    "stats": json.loads(json.dumps(stats, sort_keys=True, default=str))}
-        answer.write(json.dumps({"label": case["label"], "seconds": seconds, "result": out}) + "\n")
+        found = {"label": case["label"], "seconds": seconds, "result": out}
+        if split_clock:
+            found["split"] = dict(split_clock.totals)
+        answer.write(json.dumps(found) + "\n")
         answer.flush()
 
 
+# -- where the time goes (--split) -----------------------------------------------------
+
+#: The ``numpy.linalg`` functions that run LAPACK, timed by ``--split``.
+LAPACK_CALLS = ("lstsq", "svd", "solve", "cholesky", "qr", "pinv", "det", "slogdet", "inv", "eig", "eigh",
+                "eigvalsh", "matrix_rank")
+
+
+class SplitClock:
+    """CPU seconds inside ``numpy.linalg``'s LAPACK calls (``lapack``; ``lapack_joint`` of
+    them inside the joint pass) and inside the joint pass (``joint``), by wrapping those
+    functions in this worker process. A call inside a timed one (pinv's SVD) counts once;
+    the wrappers' own time (two clock reads a call) counts as work outside LAPACK."""
+
+    def __init__(self) -> None:
+        self.totals = dict.fromkeys(("lapack", "lapack_joint", "joint"), 0.0)
+        self.depth = 0
+        self.in_joint = False
+
+    def reset(self) -> None:
+        self.totals = dict.fromkeys(self.totals, 0.0)
+
+    def install(self) -> None:
+        import numpy as np
+
+        from parsel_aep import propagate
+
+        for name in LAPACK_CALLS:
+            if hasattr(np.linalg, name):
+                setattr(np.linalg, name, self.lapack(getattr(np.linalg, name)))
+        joint_repair = getattr(propagate.Propagation, "joint_repair", None)  # (an old baseline may lack it)
+        if joint_repair is not None:
+            propagate.Propagation.joint_repair = self.joint(joint_repair)
+
+    def lapack(self, function):
+        def timed(*args, **kwargs):
+            if self.depth:
+                return function(*args, **kwargs)
+            self.depth += 1
+            clock = time.process_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                seconds = time.process_time() - clock
+                self.depth -= 1
+                self.totals["lapack"] += seconds
+                if self.in_joint:
+                    self.totals["lapack_joint"] += seconds
+        return timed
+
+    def joint(self, function):
+        def timed(*args, **kwargs):
+            self.in_joint = True
+            clock = time.process_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.in_joint = False
+                self.totals["joint"] += time.process_time() - clock
+        return timed
+
+
+def what_if(seconds: list[float], splits: list[dict[str, float]], goal: float) -> tuple[list, dict]:
+    """Where the time goes: ``(rows, factors)``. ``rows`` are ``(case, median, p95)`` of the
+    requests' CPU as measured and with parts of the work taken away; ``factors`` how many
+    times faster the work outside LAPACK (all of it, or the joint pass's only) would have
+    to be for a p95 of at most ``goal`` (``inf``: not even if it took no time)."""
+    cpu = [float(t) for t in seconds]
+    lapack = [s["lapack"] for s in splits]
+    joint = [s["joint"] for s in splits]
+    joint_rest = [s["joint"] - s["lapack_joint"] for s in splits]
+
+    def figures(times: list[float]) -> tuple[float, float]:
+        return statistics.median(times), percentile(times, 0.95)
+
+    rows = [("as measured", *figures(cpu)),
+            ("without the joint pass", *figures([c - j for c, j in zip(cpu, joint)])),
+            ("joint pass without its LAPACK", *figures([c - j for c, j in zip(cpu, joint_rest)])),
+            ("without LAPACK", *figures([c - a for c, a in zip(cpu, lapack)])),
+            ("LAPACK alone", *figures(lapack))]
+
+    def factor(rest: list[float]) -> float:
+        """The least ``k`` with ``p95(cpu - rest + rest / k) <= goal``, by bisection."""
+        def p95(k: float) -> float:
+            return percentile([c - r + r / k for c, r in zip(cpu, rest)], 0.95)
+        if p95(1.0) <= goal:
+            return 1.0
+        if p95(float("inf")) > goal:
+            return float("inf")
+        lo, hi = 1.0, 2.0
+        while p95(hi) > goal:
+            lo, hi = hi, 2 * hi
+        for _ in range(60):
+            mid = (lo + hi) / 2
+            lo, hi = (lo, mid) if p95(mid) <= goal else (mid, hi)
+        return hi
+
+    outside = [c - a for c, a in zip(cpu, lapack)]
+    return rows, {"all work outside LAPACK": factor(outside), "the joint pass outside LAPACK": factor(joint_rest)}
+
+
+def print_split(name: str, seconds: list[float], splits: list[dict[str, float]], goal: float) -> None:
+    """``--split``'s table for side ``name``."""
+    total = sum(seconds)
+    lapack, joint = sum(s["lapack"] for s in splits), sum(s["joint"] for s in splits)
+    lapack_joint = sum(s["lapack_joint"] for s in splits)
+    print(f"\n{name}: where the CPU goes ({len(seconds)} requests, {total:.1f} s): LAPACK {lapack:.1f} s "
+          f"({lapack / total:.0%}), the joint pass {joint:.1f} s ({joint / total:.0%}; "
+          f"{lapack_joint:.1f} s of it LAPACK)")
+    rows, factors = what_if(seconds, splits, goal)
+    print(f"{'CPU per request':<32}{'median s':>10}{'p95 s':>9}")
+    for case, median, p95 in rows:
+        print(f"{case:<32}{median:>10.3f}{p95:>9.3f}")
+    for work, k in factors.items():
+        needed = "not even if it took no time" if k == float("inf") else f"{k:.2f}x faster"
+        print(f"for a p95 of {goal:g} s, {work}: {needed}")
+
+
 class Worker:
-    def __init__(self, name: str, pythonpath: str | None, extra: dict[str, str] | None = None) -> None:
+    def __init__(self, name: str, pythonpath: str | None, extra: dict[str, str] | None = None,
+                 split: bool = False) -> None:
         env = {**os.environ, **(extra or {})}
         if pythonpath:
             env["PYTHONPATH"] = pythonpath + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
         self.name = name
-        self.process = subprocess.Popen([sys.executable, __file__, "--worker"], stdin=subprocess.PIPE,
+        self.process = subprocess.Popen([sys.executable, __file__, "--worker", *(["--split"] if split else [])],
+                                        stdin=subprocess.PIPE,
                                         stdout=subprocess.PIPE, env=env, text=True, cwd=ROOT)
 
     def solve(self, case: dict) -> dict:
@@ -256,16 +391,21 @@ def main() -> None:
     parser.add_argument("--reference", type=Path,
                         help="a --save folder of an earlier run: compare with its results, not a baseline's")
     parser.add_argument("--save", type=Path, help="folder for every result (one JSON per request and side)")
+    parser.add_argument("--split", action="store_true",
+                        help="also time LAPACK and the joint pass in each request, and print where the time goes")
+    parser.add_argument("--goal", type=float, default=0.5, help="with --split: the p95 goal in seconds (0.5)")
     args = parser.parse_args()
     if args.worker:
-        worker()
+        worker(args.split)
         return
     todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
     found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference,
-                    scope=args.scope)
+                    scope=args.scope, split=args.split)
     print()
     found.print_summary()
+    for name, splits in found.splits.items():
+        print_split(name, found.times[name], splits, args.goal)
     if found.mismatches:
         sys.exit(1)
 
@@ -279,6 +419,8 @@ class Comparison:
     work: dict[str, dict[str, int]]
     requests: int
     compared: bool
+    #: ``--split``: each request's :class:`SplitClock` figures, by side.
+    splits: dict[str, list[dict[str, float]]] = field(default_factory=dict)
 
     def figures(self, name: str) -> tuple[float, float, float, float]:
         """Median, p95, max and total CPU seconds of side ``name``."""
@@ -299,16 +441,19 @@ class Comparison:
 
 
 def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] | None = None,
-            save: Path | None = None, reference: Path | None = None, echo=None, scope: str = "aep") -> Comparison:
+            save: Path | None = None, reference: Path | None = None, echo=None, scope: str = "aep",
+            split: bool = False) -> Comparison:
     """Solve ``todo`` (:func:`cases`) in a worker on the working tree and, with ``baseline``,
     in one on what that revision solves with (:func:`baseline_tree`'s ``scope``),
-    alternating; ``echo`` gets a line per request (printed by default)."""
+    alternating; ``echo`` gets a line per request (printed by default); ``split``: each
+    worker times LAPACK and the joint pass too (:class:`SplitClock`)."""
     echo = echo or (lambda line: print(line, flush=True))
     with tempfile.TemporaryDirectory() as tmp:
-        sides = [Worker("new", None, env)]
+        sides = [Worker("new", None, env, split)]
         if baseline:
-            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp), scope)))
+            sides.insert(0, Worker("old", baseline_tree(baseline, Path(tmp), scope), split=split))
         times: dict[str, list[float]] = {w.name: [] for w in sides}
+        splits: dict[str, list[dict[str, float]]] = {w.name: [] for w in sides} if split else {}
         mismatches = []
         work: dict[str, dict[str, int]] = {}
         if save:
@@ -321,6 +466,8 @@ def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] |
                 if name not in times:
                     continue
                 times[name].append(answer["seconds"])
+                if split:
+                    splits[name].append(answer["split"])
                 if save:
                     path = save / f"{case['label'].replace('/', '_')}.{name}.json"
                     path.write_text(json.dumps(answer["result"], indent=1, sort_keys=True))
@@ -349,7 +496,7 @@ def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] |
             echo(f"{i:3d} {case['label']:<52} {line}  {digest(decided(answers['new']['result']))}  {same}")
         for w in sides:
             w.close()
-    return Comparison(times, mismatches, work, len(todo), bool(baseline or reference))
+    return Comparison(times, mismatches, work, len(todo), bool(baseline or reference), splits)
 
 
 if __name__ == "__main__":

@@ -82,3 +82,39 @@ def test_a_baseline_imports_what_its_scope_takes_from_the_revision(tmp_path, sco
 def test_an_unknown_baseline_scope_is_refused(tmp_path):
     with pytest.raises(ValueError, match="baseline scope 'plugins'"):
         bench_aep_speed.baseline_tree("HEAD", tmp_path, "plugins")
+
+
+def test_split_times_lapack_and_the_joint_pass_within_each_request():
+    found = bench_aep_speed.compare(requests(), echo=lambda line: None, split=True)
+    splits = found.splits["new"]
+    assert len(splits) == 2
+    for seconds, split in zip(found.times["new"], splits):
+        assert 0 < split["lapack"] <= seconds and 0 < split["joint"] <= seconds
+        assert 0 <= split["lapack_joint"] <= min(split["lapack"], split["joint"])
+    assert bench_aep_speed.compare(requests()[:1], echo=lambda line: None).splits == {}
+
+
+def test_what_if_takes_away_the_work_by_hand():
+    # 20 requests of 1 s: 0.2 s in LAPACK, 0.5 s in the joint pass, 0.1 s of it LAPACK.
+    # The p95 is the 19th smallest (bench_aep's rank), here 1 s whatever is taken away.
+    split = {"lapack": 0.2, "joint": 0.5, "lapack_joint": 0.1}
+    rows, factors = bench_aep_speed.what_if([1.0] * 20, [split] * 20, goal=0.5)
+    assert [(case, round(m, 9), round(p, 9)) for case, m, p in rows] == [
+        ("as measured", 1.0, 1.0), ("without the joint pass", 0.5, 0.5),
+        ("joint pass without its LAPACK", 0.6, 0.6), ("without LAPACK", 0.8, 0.8),
+        ("LAPACK alone", 0.2, 0.2)]
+    # 0.2 + 0.8 / k <= 0.5 from k = 8/3; the joint pass alone leaves 0.6 s > 0.5 s
+    assert factors["all work outside LAPACK"] == pytest.approx(8 / 3, rel=1e-9)
+    assert factors["the joint pass outside LAPACK"] == float("inf")
+    # 0.6 + 0.4 / k <= 0.7 from k = 4; a goal already met needs nothing
+    assert bench_aep_speed.what_if([1.0] * 20, [split] * 20, goal=0.7)[1]["the joint pass outside LAPACK"] == \
+        pytest.approx(4.0, rel=1e-9)
+    assert set(bench_aep_speed.what_if([1.0] * 20, [split] * 20, goal=2.0)[1].values()) == {1.0}
+
+
+def test_what_if_reads_the_p95_at_bench_aeps_rank():
+    # one slow request in 20 is above the p95 rank: the p95 is the fast ones' 0.1 s
+    seconds = [0.1] * 19 + [3.0]
+    splits = [{"lapack": 0.0, "joint": 0.0, "lapack_joint": 0.0}] * 20
+    rows, factors = bench_aep_speed.what_if(seconds, splits, goal=0.5)
+    assert rows[0][2] == 0.1 and set(factors.values()) == {1.0}

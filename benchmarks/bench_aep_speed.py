@@ -233,7 +233,7 @@ def what_if(seconds: list[float], splits: list[dict[str, float]], goal: float) -
 
     rows = [("as measured", *figures(cpu)),
             ("without the joint pass", *figures([c - j for c, j in zip(cpu, joint)])),
-            ("joint pass without its LAPACK", *figures([c - j for c, j in zip(cpu, joint_rest)])),
+            ("joint pass: its LAPACK only", *figures([c - j for c, j in zip(cpu, joint_rest)])),
             ("without LAPACK", *figures([c - a for c, a in zip(cpu, lapack)])),
             ("LAPACK alone", *figures(lapack))]
 
@@ -259,7 +259,7 @@ def what_if(seconds: list[float], splits: list[dict[str, float]], goal: float) -
 
 def print_split(name: str, seconds: list[float], splits: list[dict[str, float]], goal: float) -> None:
     """``--split``'s table for side ``name``."""
-    total = sum(seconds)
+    total = max(sum(seconds), 1e-9)
     lapack, joint = sum(s["lapack"] for s in splits), sum(s["joint"] for s in splits)
     lapack_joint = sum(s["lapack_joint"] for s in splits)
     print(f"\n{name}: where the CPU goes ({len(seconds)} requests, {total:.1f} s): LAPACK {lapack:.1f} s "

@@ -79,19 +79,11 @@ def _apply_all(ops: Sequence[EditOp], rest: np.ndarray, amount: float) -> np.nda
 
 def apply_each(ops: Sequence[EditOp], rest: np.ndarray, amounts: Sequence[float]) -> np.ndarray:
     """Each op applied to the rest corners (8, 3) at its own amount: (N, 8, 3), to the bit
-    ``np.stack([op.apply(rest, amount, np) ...])``. Translations, scalings and shears are
-    batched (products and sums, element by element the same); rotations, whose batched
-    sines and cosines may round differently from one angle's, are applied one by one."""
-    amounts = np.asarray(amounts, dtype=float)
-    batched = [type(op) in _BATCHED and type(op) is not Rotate for op in ops]
-    linear = [i for i, b in enumerate(batched) if b]
-    out = np.empty((len(ops), 8, 3))
-    for i in (i for i, b in enumerate(batched) if not b):
-        out[i] = ops[i].apply(rest, float(amounts[i]), np)
-    if linear:
-        batch = _Batch([ops[i] for i in linear])
-        out[linear] = batch.apply(rest, amounts[linear])
-    return out
+    ``np.stack([op.apply(rest, amount, np) ...])``. The ops are batched (products and sums,
+    element by element the same); a rotation's sine and cosine are taken one angle at a
+    time, as its own ``apply`` takes them (numpy's sines of an array may round differently
+    from one angle's)."""
+    return _Batch(ops).apply(rest, np.asarray(amounts, dtype=float))
 
 
 class _Batch:
@@ -119,8 +111,16 @@ class _Batch:
         for i in self.single:
             out[i] = self.ops[i].apply(rest, float(amount[i]) if each else amount, NUMPY_MATH)
         for kind, index, fields, moves in self.groups:
-            out[index] = _apply_batch(kind, moves, fields, rest,
-                                      np.asarray(amount)[index][:, None, None] if each else amount)
+            if not each:
+                out[index] = _apply_batch(kind, moves, fields, rest, amount)
+                continue
+            amounts = np.asarray(amount)[index]
+            trig = None
+            if kind is Rotate:  # one angle at a time, as Rotate.transform takes them
+                angles = amounts.tolist()
+                trig = (np.array([NUMPY_MATH.cos(a) for a in angles])[:, None, None],
+                        np.array([NUMPY_MATH.sin(a) for a in angles])[:, None, None])
+            out[index] = _apply_batch(kind, moves, fields, rest, amounts[:, None, None], trig)
         return out
 
 
@@ -168,20 +168,21 @@ def _cross(n: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def _apply_batch(kind: type, moves: np.ndarray | None, fields: tuple[np.ndarray, ...], points: np.ndarray,
-                 amount: float) -> np.ndarray:
+                 amount: float | np.ndarray, trig: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """``np.stack([op.apply(points, amount, NUMPY_MATH) for op in ops])`` for ops of one class,
     given their vector fields (:func:`_fields`, each (G, 1, 3)) and the corners each moves
     (:func:`_moved_corners`), with the operations of each op's ``transform`` in the same
     order, so the result is the same to the last bit: every corner is transformed (element
     by element, as an op on a feature transforms its own corners) and an op on a feature
-    keeps the rest of its corners where they are."""
+    keeps the rest of its corners where they are. ``trig``: rotations' cosines and sines
+    (G, 1, 1), when taken beforehand."""
     if kind is Translate:
         (d,) = fields
         moved = points + d * amount
     elif kind is Rotate:
         o, axis = fields
         centred = points - o
-        cos, sin = NUMPY_MATH.cos(amount), NUMPY_MATH.sin(amount)
+        cos, sin = trig if trig is not None else (NUMPY_MATH.cos(amount), NUMPY_MATH.sin(amount))
         rotated = centred * cos + _cross(axis, centred) * sin + _dot(centred, axis) * axis * (1 - cos)
         moved = o + rotated
     elif kind is Scale1D:

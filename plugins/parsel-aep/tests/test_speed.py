@@ -83,6 +83,21 @@ def test_ops_applied_each_at_its_own_amount_are_bitwise_the_ops_own(seed):
     assert each.tobytes() == plain.tobytes()
 
 
+def test_rotations_applied_each_at_its_own_angle_are_bitwise_the_ops_own():
+    """apply_each batches rotations too, each angle's sine and cosine taken on its own:
+    hundreds of angles, small and large, about faces, edges and whole parts."""
+    rng = np.random.default_rng(11)
+    rest = skewed_box(rng).corners
+    features = [None, *FACE_NAMES, *EDGE_NAMES]
+    ops = [Rotate("p", "f", origin=tuple(float(v) for v in rng.normal(size=3)),
+                  axis=tuple(float(v) for v in rng.normal(size=3)), feature=features[i % len(features)])
+           for i in range(400)]
+    amounts = rng.normal(size=len(ops)) * rng.choice([1e-9, 1e-3, 1.0, 50.0, 1e6], size=len(ops))
+    each = screening.apply_each(ops, rest, amounts)
+    plain = np.stack([op.apply(rest, float(a), np) for op, a in zip(ops, amounts)])
+    assert each.tobytes() == plain.tobytes()
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_candidate_lists_are_the_same_built_lazily_and_cached(seed):
     rng = np.random.default_rng(seed)

@@ -154,10 +154,11 @@ def _cost_bound(errors: np.ndarray, allowed: np.ndarray) -> np.ndarray:
 
 
 def least_breaking(table: BreakingTable, constraints: int, distortion: Callable[[list[Screened]], np.ndarray],
-                   rank: Callable[[list[Screened]], list[Screened]], tolerance: float,
+                   best: Callable[[np.ndarray], int | None], tolerance: float,
                    high: float) -> Screened | None:
-    """The breaking-edit to take: the best ranked (``rank``) of the rows whose total error
-    is within 1% of the least among the edits whose ``distortion`` is not above ``high``.
+    """The breaking-edit to take: the best ranked of the rows whose total error is within
+    1% of the least among the edits whose ``distortion`` is not above ``high``; ``best``
+    gives the best ranked of some rows (positions in the table, in order), ``None`` for none.
 
     Rows that break all ``constraints`` or have no finite amounts or cost are not taken.
     Rows are evaluated in order of their bounds until the ones the choice reads are known:
@@ -180,8 +181,8 @@ def least_breaking(table: BreakingTable, constraints: int, distortion: Callable[
     near = scan.pool()
     near = near[table.cost[near] <= limit]
     near = near[np.lexsort((table.generated[near], table.nbroken[near], table.index[near]))]
-    ranked = rank([table.screened(i) for i in near])
-    return ranked[0] if ranked else None
+    chosen = best(near)
+    return table.screened(chosen) if chosen is not None else None
 
 
 class _Scan:

@@ -1140,23 +1140,56 @@ class Propagation:
         too distorting."""
         return breaking_module.least_breaking(
             table, constraints, lambda chunk: self._distortion(chunk, rest, planes=False)[0],
-            lambda pool: self.rank(pool, rest), self.tolerance, HIGH_DISTORTION)
+            lambda rows: self.best_row(table, rows, rest), self.tolerance, HIGH_DISTORTION)
+
+    def best_row(self, table: BreakingTable, rows: np.ndarray, rest: Mapping[str, np.ndarray]) -> int | None:
+        """The row (a position in ``table``) of ``rank([table.screened(i) for i in rows], rest)[0]``,
+        ``None`` when that ranking is empty: the breaking-edits within 1% of the least error
+        are hundreds, and only the best is taken, so they are ranked as arrays."""
+        rows = np.asarray(rows, dtype=int)
+        rows = rows[table.finite[rows]]
+        if not rows.size:
+            return None
+        ops, kinds, last = table.ops_at_end(rows)
+        energy, planes = self._distortion_at(ops, kinds, last, rest)
+        if np.isnan(energy).any():  # (rank orders tuples holding NaN as Python does)
+            pool = [table.screened(i) for i in rows]
+            ranked = self.rank(pool, rest)
+            return next(int(i) for i, s in zip(rows, pool) if s is ranked[0]) if ranked else None
+        taken = np.flatnonzero(~(energy > HIGH_DISTORTION))
+        if not taken.size:
+            return None
+        simplicity = [SIMPLICITY.index(family) if (family := candidate_family(ops[i])) in SIMPLICITY
+                      else len(SIMPLICITY) for i in taken.tolist()]
+        e = energy[taken]
+        # rank's key (tier, -planes, energy to 9 digits, simplicity, candidate order); a
+        # stable sort, so ties keep the rows' order (no preferred or spanning edits here)
+        order = np.lexsort((table.index[rows[taken]], np.array(simplicity), np.array([round(v, 9) for v in e.tolist()]),
+                            -planes[taken], np.where(e < 1e-9, 1, 3)))
+        return int(rows[taken[order[0]]])
 
     @staticmethod
     def _distortion(pool: list[Screened], rest: Mapping[str, np.ndarray], planes: bool = True
                     ) -> tuple[np.ndarray, np.ndarray]:
         """Mean ARAP energy over the moving parts and symmetry planes kept, per screened edit,
         at the end of the range."""
-        energy = np.zeros(len(pool))
-        counts = np.zeros(len(pool))
-        plain = [i for i, s in enumerate(pool) if s.kind != "compound"]
-        compound = [i for i, s in enumerate(pool) if s.kind == "compound"]
-        ops, amounts = [pool[i].op for i in plain], [float(pool[i].f[-1]) for i in plain]
+        return Propagation._distortion_at([s.op for s in pool], [s.kind for s in pool], [s.f[-1] for s in pool],
+                                          rest, planes)
+
+    @staticmethod
+    def _distortion_at(ops: list, kinds: list[str], last: list, rest: Mapping[str, np.ndarray],
+                       planes: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_distortion` of edits given by their ops, kinds and amounts at the last sample."""
+        energy = np.zeros(len(ops))
+        counts = np.zeros(len(ops))
+        plain = [i for i, kind in enumerate(kinds) if kind != "compound"]
+        compound = [i for i, kind in enumerate(kinds) if kind == "compound"]
+        plain_ops, amounts = [ops[i] for i in plain], [float(last[i]) for i in plain]
         for corners in rest.values():
-            edited = np.empty((len(pool), 8, 3))
-            edited[plain] = apply_each(ops, corners, amounts)
+            edited = np.empty((len(ops), 8, 3))
+            edited[plain] = apply_each(plain_ops, corners, amounts)
             for i in compound:
-                edited[i] = pool[i].op.apply(corners, pool[i].f[-1], np)
+                edited[i] = ops[i].apply(corners, last[i], np)
             energy += arap_energies(corners, edited)
             if planes:
                 counts += symmetry_plane_counts(edited)

@@ -498,6 +498,18 @@ class ScreenTable:
         self.finite = np.concatenate([np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1) for b in blocks]
                                      or [np.zeros(0, bool)]).astype(bool)
 
+    def ops_at_end(self, rows: np.ndarray) -> tuple[list, list[str], list]:
+        """Each of ``rows``' (positions in the arrays) op, kind and amount at the last sample:
+        what ranking reads, without making a :class:`Screened` of each."""
+        lists = {"affine": self.system.affine, "rotation": self.system.rotations, "compound": self.system.compounds}
+        ops, kinds, last = [], [], []
+        for b, n in zip(self.block[rows].tolist(), self.row[rows].tolist()):
+            block = self.blocks[b]
+            ops.append(lists[block.kind][block.sources[n]][1])
+            kinds.append(block.kind)
+            last.append(block.f[n][-1])
+        return ops, kinds, last
+
     def screened(self, i: int) -> Screened:
         """Result ``i`` (a position in the arrays, not in :attr:`order`) as a :class:`Screened`."""
         i = int(i)

@@ -721,6 +721,44 @@ def test_breaking_edits_screened_lazily_are_those_of_screening_every_row(monkeyp
     assert seen["evaluated"] < 0.5 * seen["rows"]
 
 
+def test_best_breaking_row_is_the_first_of_ranking_every_row(monkeypatch):
+    """A breaking-edit search ranks the hundreds of rows within 1% of the least error as
+    arrays and makes a Screened only of the best (Propagation.best_row); it must be the
+    first of ranking them all as Screened objects (Propagation.rank), ties included: the
+    rows are also ranked reversed and in a random order, and without the best."""
+    from parsel_aep.propagate import Propagation
+
+    fast = Propagation.best_row
+    rng = np.random.default_rng(8)
+    seen = {"calls": 0, "rows": 0}
+
+    def first_ranked(self, table, rows, rest):
+        ranked = self.rank([table.screened(i) for i in rows], rest)
+        return ranked[0] if ranked else None
+
+    def both(self, table, rows, rest):
+        got = fast(self, table, rows, rest)
+        orders = [rows, rows[::-1], rng.permutation(rows)]
+        for order in orders:
+            want = first_ranked(self, table, order, rest)
+            found = fast(self, table, order, rest)
+            assert (found is None) == (want is None)
+            if want is not None:
+                assert table.screened(found) is want
+        if got is not None and len(rows) > 1:
+            rest_rows = rows[rows != got]
+            want = first_ranked(self, table, rest_rows, rest)
+            found = fast(self, table, rest_rows, rest)
+            assert (found is None) == (want is None) and (want is None or table.screened(found) is want)
+        seen["calls"] += 1
+        seen["rows"] += len(rows)
+        return got
+
+    monkeypatch.setattr(Propagation, "best_row", both)
+    solve_fixtures()
+    assert seen["calls"] >= 3 and seen["rows"] > 100
+
+
 def test_joint_variants_come_in_the_order_solving_them_all_gives(monkeypatch):
     """The joint pass solves its variants lazily (propagate.best_clusters); they must come
     in the order of solving every variant and sorting them by score."""

@@ -1145,28 +1145,15 @@ class Propagation:
     def best_row(self, table: BreakingTable, rows: np.ndarray, rest: Mapping[str, np.ndarray]) -> int | None:
         """The row (a position in ``table``) of ``rank([table.screened(i) for i in rows], rest)[0]``,
         ``None`` when that ranking is empty: the breaking-edits within 1% of the least error
-        are hundreds, and only the best is taken, so they are ranked as arrays."""
+        are hundreds, and only the best is taken, so only it is made a :class:`Screened`."""
         rows = np.asarray(rows, dtype=int)
         rows = rows[table.finite[rows]]
         if not rows.size:
             return None
         ops, kinds, last = table.ops_at_end(rows)
         energy, planes = self._distortion_at(ops, kinds, last, rest)
-        if np.isnan(energy).any():  # (rank orders tuples holding NaN as Python does)
-            pool = [table.screened(i) for i in rows]
-            ranked = self.rank(pool, rest)
-            return next(int(i) for i, s in zip(rows, pool) if s is ranked[0]) if ranked else None
-        taken = np.flatnonzero(~(energy > HIGH_DISTORTION))
-        if not taken.size:
-            return None
-        simplicity = [SIMPLICITY.index(family) if (family := candidate_family(ops[i])) in SIMPLICITY
-                      else len(SIMPLICITY) for i in taken.tolist()]
-        e = energy[taken]
-        # rank's key (tier, -planes, energy to 9 digits, simplicity, candidate order); a
-        # stable sort, so ties keep the rows' order (no preferred or spanning edits here)
-        order = np.lexsort((table.index[rows[taken]], np.array(simplicity), np.array([round(v, 9) for v in e.tolist()]),
-                            -planes[taken], np.where(e < 1e-9, 1, 3)))
-        return int(rows[taken[order[0]]])
+        order = self._ranked(ops, table.index[rows].tolist(), energy, planes)
+        return int(rows[order[0]]) if order else None
 
     @staticmethod
     def _distortion(pool: list[Screened], rest: Mapping[str, np.ndarray], planes: bool = True
@@ -1206,15 +1193,23 @@ class Propagation:
         if not pool:
             return []
         energy, planes = self._distortion(pool, rest)
+        order = self._ranked([s.op for s in pool], [s.index for s in pool], energy, planes, preferred, spanning)
+        return [pool[i] for i in order]
+
+    @staticmethod
+    def _ranked(ops: Sequence, index: Sequence[int], energy: np.ndarray, planes: np.ndarray,
+                preferred: set[int] = frozenset(), spanning: set[int] = frozenset()) -> list[int]:
+        """:meth:`rank`'s order of edits given by their ops, candidate indices and distortion
+        (:meth:`_distortion_at`): their positions, best first, the high-distortion ones left out."""
         scored = []
-        for s, e, p in zip(pool, energy, planes):
+        for i, (op, e, p) in enumerate(zip(ops, energy, planes)):
             if e > HIGH_DISTORTION:
                 continue
-            family = candidate_family(s.op)
+            family = candidate_family(op)
             simplicity = SIMPLICITY.index(family) if family in SIMPLICITY else len(SIMPLICITY)
             rigid = e < 1e-9
-            tier = 0 if id(s.op) in spanning else 1 if rigid else 2 if id(s.op) in preferred else 3
-            scored.append((tier, -p, round(float(e), 9), simplicity, s.index, s))
+            tier = 0 if id(op) in spanning else 1 if rigid else 2 if id(op) in preferred else 3
+            scored.append((tier, -p, round(float(e), 9), simplicity, index[i], i))
         scored.sort(key=lambda t: t[:5])
         return [t[-1] for t in scored]
 

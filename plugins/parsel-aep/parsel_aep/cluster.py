@@ -676,6 +676,8 @@ def _plan(system: ClusterSystem, numerics: _Numerics) -> tuple[list[int], np.nda
     for start in (everything, None):
         if start is None:  # only needed when not everything can be kept
             start = _sparse_breaks(system, numerics=numerics)
+            if len(start) < len(best[2]):
+                break  # dropping from fewer constraints keeps fewer: it cannot score better
         f, _, kept = _drop_until_kept(system, start, numerics)
         if best is not None and kept == best[2]:
             break  # the same solve: the same score, and the first one stays

@@ -1070,3 +1070,19 @@ def test_only_the_clusters_dropping_the_fewest_constraints_are_scored():
     assert next(ranked) is made["p2"]  # (p3, dropping one, cannot be solved: left out)
     assert [made[p].reads > 0 for p in sorted(made)] == [True, False, True, True, False]
     assert list(ranked) == [made["p0"], made["p1"], made["p4"]]
+
+
+def test_an_l1_start_keeping_fewer_constraints_than_the_first_pass_is_not_solved(monkeypatch):
+    """Dropping constraints from the L1 fit's start keeps at most as many as it starts from:
+    when that is fewer than the first pass kept, it cannot score better and is not solved."""
+    rng = np.random.default_rng(1)
+    system = random_system(rng, rank_loss=1, conflict=0.05)
+    starts = []
+    drop = cluster._drop_until_kept
+    monkeypatch.setattr(cluster, "_drop_until_kept",
+                        lambda s, kept, n=None: starts.append(list(kept)) or drop(s, kept, n))
+    kept = cluster.plan(system).kept
+    everything = list(range(len(system.constraints)))
+    assert len(cluster._sparse_breaks(fresh_copy(system))) < len(kept) < len(everything)
+    assert starts == [everything]
+    assert_solve_is_the_exact_solve(system)

@@ -1086,3 +1086,48 @@ def test_an_l1_start_keeping_fewer_constraints_than_the_first_pass_is_not_solved
     assert len(cluster._sparse_breaks(fresh_copy(system))) < len(kept) < len(everything)
     assert starts == [everything]
     assert_solve_is_the_exact_solve(system)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_a_column_too_short_for_the_conditioning_proof_fails_it_without_a_factorisation(seed, monkeypatch):
+    """A column whose squared norm is below CONDITIONED^2 times the longest one's leaves
+    G - d I indefinite: the proof is declined without forming G, where the Cholesky
+    factorisation would have failed; longer columns are still proved by it."""
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(60, 12)) * (rng.random((60, 12)) < 0.4) + np.eye(60, 12)
+    b = rng.normal(size=(60, 3))
+    column = int(rng.integers(12))
+    short = a.copy()
+    short[:, column] *= [1e-6, 3e-6, 6e-6, 1e-7, 1e-9, 1e-12, 0.0, 5e-6][seed]
+    g = short.T @ short
+    top = min(float(np.trace(g)), float(np.abs(g).sum(axis=1).max()))
+    with pytest.raises(np.linalg.LinAlgError):  # what the proof itself would find
+        np.linalg.cholesky(g - cluster.CONDITIONED ** 2 * top * np.eye(12))
+    factorised = []
+    cholesky = np.linalg.cholesky
+    monkeypatch.setattr(np.linalg, "cholesky", lambda m: factorised.append(m) or cholesky(m))
+    assert cluster._conditioned_lstsq(short, b) is None and not factorised
+    kept = a.copy()
+    kept[:, column] *= 1e-3  # (short, but well above the bound: still proved)
+    got = cluster._conditioned_lstsq(kept, b)
+    assert factorised and got is not None
+    assert np.allclose(got, np.linalg.lstsq(kept, b, rcond=1e-9)[0], rtol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_systems_little_taller_than_wide_also_decide_on_their_qr(seed):
+    """Between B and 2B residual columns the fast solves that differ only in the prior
+    also share one QR; the amounts agree with the exact solver's and the solve is still
+    bitwise the exact one."""
+    rng = np.random.default_rng(seed)
+    system = random_system(rng, parts=4, constraints=18, rank_loss=seed % 3, conflict=[0.0, 0.05, 1.0][seed % 3])
+    columns = np.arange(system.r0.shape[1])
+    assert len(system.weights) <= len(columns) < 2 * len(system.weights)
+    fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
+    rows = rng.uniform(0.5, 2.0, len(columns))
+    for _ in range(4):
+        prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)
+        got, want = fast.amounts(columns, rows, prior), exact.amounts(columns, rows, prior)
+        assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+    assert [v is not None for v in fast.factored.values()] == [True]
+    assert_solve_is_the_exact_solve(system)

@@ -495,7 +495,8 @@ class ScreenTable:
                      "rotation": np.array([i for i, _ in system.rotations], dtype=int),
                      "compound": np.array([i for i, _, _ in system.compounds or ()], dtype=int)}
         self.index = np.concatenate([first[b.kind][b.sources] for b in blocks] or [np.zeros(0, int)]).astype(int)
-        self.finite = np.concatenate([np.isfinite(b.f).reshape(len(b.f), -1).all(axis=-1) for b in blocks]
+        # (a block may have no rows: no candidate of its kind moves a constraint)
+        self.finite = np.concatenate([np.isfinite(b.f).all(axis=tuple(range(1, b.f.ndim))) for b in blocks]
                                      or [np.zeros(0, bool)]).astype(bool)
 
     def ops_at_end(self, rows: np.ndarray) -> tuple[list, list[str], list]:

@@ -262,3 +262,20 @@ def test_a_cluster_part_no_constraint_reads_gets_zero_amounts():
     f, _, kept = cluster.solve(system)
     assert kept == [0]
     assert np.allclose(f[:, system.blocks[1]], 0)
+
+
+@pytest.mark.parametrize("seed, keeps_all", [
+    ("scale_1d('cube2', origin=(0.669138, 0.003, 0.0), dir=(1, 0, 0), amount=x)", True),
+    ("translate('cube2', dir=(0, 1, 0), amount=0.2 * x)", False),
+    ("scale_1d('cube0', origin=(-0.007305, -0.7315, 0.0), dir=(0, 1, 0), amount=0.5 * x)", True),
+])
+def test_a_search_whose_candidates_move_no_constraint_is_screened_without_rows(seed, keeps_all):
+    """storage/45874: the row's layout search has translations and scalings none of which
+    moves a constraint it screens (no usable amount, no rows); the request is solved, and
+    widening the side panel or thickening the bottom board keeps every relation (raising
+    the side panel takes it off the boards it stood between)."""
+    shape = load_shape(str(JOINT / "storage_45874.txt"))
+    result = propagate(SolveRequest(shape, Program.from_text(seed), options={"backend": "symengine"}))
+    counts = check_program(shape, result.program).counts()
+    assert sum(counts.values()) == len(shape.relations)
+    assert (counts["broken"] == 0) == keeps_all

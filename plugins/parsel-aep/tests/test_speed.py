@@ -1131,3 +1131,20 @@ def test_systems_little_taller_than_wide_also_decide_on_their_qr(seed):
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
     assert [v is not None for v in fast.factored.values()] == [True]
     assert_solve_is_the_exact_solve(system)
+
+
+def test_candidates_moving_no_constraint_leave_an_empty_table():
+    """No translation or scaling of the moving part moves a constraint (none reads it): no
+    amount is usable, and screening returns a table with no rows instead of failing."""
+    from parsel_core.relations import Attachment
+
+    rng = np.random.default_rng(3)
+    box = skewed_box(rng)
+    corner = tuple(float(v) for v in np.eye(8)[0])
+    contact = Attachment("a-b", ("a", "b"), weights_a=(corner,), weights_b=(corner,))
+    others = {m: np.broadcast_to(skewed_box(rng).corners, (5, 8, 3)) for m in ("a", "b")}
+    candidates = [Translate("p", "f", dir=(1.0, 0.0, 0.0)), Scale1D("p", "f", origin=(0.0, 0.0, 0.0),
+                                                                     dir=(0.0, 1.0, 0.0))]
+    table = screening.screen_table(candidates, {"p": box.corners}, others, [contact], 1e-3)
+    assert len(table.index) == len(table.finite) == len(table.order) == 0
+    assert screening.screen(candidates, {"p": box.corners}, others, [contact], 1e-3) == []

@@ -13,12 +13,19 @@ two workers, so a busy machine slows both alike; each request's CPU time is
 For every request the program's JSON text, the rejected relations and the solver's
 counts (its stats without times) must be byte-for-byte the same in both; any difference
 is listed (with, for programs of the same ops, the largest difference of the amounts at
-the samples) and the exit status is 1. Counts of work done (``WORK_COUNTS``: candidates
-screened, searches proved hopeless without screening) may differ; their totals are
-printed at the end.
+the samples) and the exit status is 1. A request a side crashes on (any exception but
+the solver's own refusals) is recorded as its result and listed per side at the end; a
+crash of the working tree's side also exits with status 1. Counts of work done
+(``WORK_COUNTS``: candidates screened, searches proved hopeless without screening) may
+differ; their totals are printed at the end.
 
     python benchmarks/bench_aep_speed.py [--baseline REV [--core | --tree]] [--random 40] [--designer 40]
         [--no-properties] [--save DIR] [--only LABEL-SUBSTRING] [--split [--goal 0.5]]
+        [--sample SEED] [--shapes 100]
+
+``--sample`` draws the random-seed requests' shapes afresh (another seed than
+``bench_aep.py``'s 0), so a change can also be checked on shapes its author never looked
+at; ``--shapes`` how many are drawn.
 
 Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
 outputs, one JSON file per request).
@@ -60,9 +67,11 @@ def _properties_module():
     return module
 
 
-def cases(random: int, designer: int, properties: bool, data: Path, shapes: int = 100) -> list[dict]:
+def cases(random: int, designer: int, properties: bool, data: Path, shapes: int = 100,
+          sample: int = 0) -> list[dict]:
     """``{label, spec, seed, breaks, options}`` for every request, in a fixed order; the
-    random-seed requests are those of ``bench_aep.py --shapes SHAPES``."""
+    random-seed requests are those of ``bench_aep.py --shapes SHAPES``, on shapes drawn
+    with the seed ``sample`` (0: ``bench_aep.py``'s; others label theirs ``random<sample>``)."""
     import numpy as np
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -74,13 +83,14 @@ def cases(random: int, designer: int, properties: bool, data: Path, shapes: int 
     out: list[dict] = []
     if random:
         requests = []
-        for path in sample_programs(data, shapes):
+        for path in sample_programs(data, shapes, seed=sample):
             shape = load_shape(str(path))
             requests += [(str(path), shape.name, seed) for seed in seeds_for(shape)]
             if len(requests) >= random:
                 break
+        kind = "random" if sample == 0 else f"random{sample}"
         for i, (path, name, seed) in enumerate(requests[:random]):
-            out.append({"label": f"random-{i:03d}-{name}", "spec": path, "seed": seed, "breaks": [],
+            out.append({"label": f"{kind}-{i:03d}-{name}", "spec": path, "seed": seed, "breaks": [],
                         "options": {"backend": "symengine"}})
     if designer:
         found = []
@@ -118,11 +128,7 @@ def worker(split: bool = False) -> None:
     answer = sys.stdout
     sys.stdout = sys.stderr  # nothing the solver prints may reach the answers
     import parsel_aep
-    from parsel_core.errors import ParselError
-    from parsel_core.interfaces import SolveRequest
-    from parsel_core.loading import load_shape
     from parsel_core.plugins import solvers
-    from parsel_core.program import Program
 
     shapes: dict[str, object] = {}
     aep = solvers()["aep"]
@@ -132,29 +138,42 @@ def worker(split: bool = False) -> None:
         split_clock.install()
     for line in sys.stdin:
         case = json.loads(line)
-        shape = shapes.get(case["spec"])
-        if shape is None:
-            shape = shapes[case["spec"]] = load_shape(case["spec"])
         if split_clock:
             split_clock.reset()
-        clock = time.process_time()
-        try:
-            request = SolveRequest(shape, Program.from_text(case["seed"]), breaks=tuple(case["breaks"]),
-                                   options=case["options"])
-            result = aep.run(request)
-        except ParselError as exc:
-            seconds = time.process_time() - clock
-            out = {"error": f"{type(exc).__name__}: {exc}"}
-        else:
-            seconds = time.process_time() - clock
-            stats = {k: v for k, v in result.stats.items() if k != "time_s"}
-            out = {"program": result.program.to_json(), "rejected": list(result.rejected),
-                   "stats": json.loads(json.dumps(stats, sort_keys=True, default=str))}
+        seconds, out = solve_case(aep, shapes, case)
         found = {"label": case["label"], "seconds": seconds, "result": out}
         if split_clock:
             found["split"] = dict(split_clock.totals)
         answer.write(json.dumps(found) + "\n")
         answer.flush()
+
+
+def solve_case(aep, shapes: dict, case: dict) -> tuple[float, dict]:
+    """CPU seconds and the result of one request: its program, rejections and counts; the
+    error of a request the solver refuses (``ParselError``); or, when the solver fails
+    (any other exception), ``crashed``, so that a crash on one side is a difference to
+    list rather than the end of the run. ``shapes`` keeps the loaded shapes by spec."""
+    from parsel_core.errors import ParselError
+    from parsel_core.interfaces import SolveRequest
+    from parsel_core.loading import load_shape
+    from parsel_core.program import Program
+
+    shape = shapes.get(case["spec"])
+    if shape is None:
+        shape = shapes[case["spec"]] = load_shape(case["spec"])
+    clock = time.process_time()
+    try:
+        request = SolveRequest(shape, Program.from_text(case["seed"]), breaks=tuple(case["breaks"]),
+                               options=case["options"])
+        result = aep.run(request)
+    except ParselError as exc:
+        return time.process_time() - clock, {"error": f"{type(exc).__name__}: {exc}"}
+    except Exception as exc:  # a benchmark reports crashes instead of stopping
+        return time.process_time() - clock, {"crashed": f"{type(exc).__name__}: {exc}"}
+    seconds = time.process_time() - clock
+    stats = {k: v for k, v in result.stats.items() if k != "time_s"}
+    return seconds, {"program": result.program.to_json(), "rejected": list(result.rejected),
+                     "stats": json.loads(json.dumps(stats, sort_keys=True, default=str))}
 
 
 # -- where the time goes (--split) -----------------------------------------------------
@@ -382,6 +401,9 @@ def main() -> None:
     taken.add_argument("--tree", dest="scope", action="store_const", const="tree",
                        help="take the baseline's whole tree, core and every plugin (for an older revision)")
     parser.add_argument("--random", type=int, default=40, help="first random-seed requests of bench_aep")
+    parser.add_argument("--sample", type=int, default=0,
+                        help="draw the random-seed requests' shapes with this seed (0: bench_aep's shapes)")
+    parser.add_argument("--shapes", type=int, default=100, help="shapes drawn for the random-seed requests")
     parser.add_argument("--designer", type=int, default=40, help="designer seeds, spread over the shapes")
     parser.add_argument("--no-properties", action="store_true", help="leave out the property-test seeds")
     parser.add_argument("--only", default="", help="only requests whose label contains this")
@@ -398,7 +420,8 @@ def main() -> None:
     if args.worker:
         worker(args.split)
         return
-    todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data) if args.only in c["label"]]
+    todo = [c for c in cases(args.random, args.designer, not args.no_properties, args.data, args.shapes, args.sample)
+            if args.only in c["label"]]
     print(f"{len(todo)} requests", flush=True)
     found = compare(todo, args.baseline, dict(item.split("=", 1) for item in args.env), args.save, args.reference,
                     scope=args.scope, split=args.split)
@@ -406,7 +429,7 @@ def main() -> None:
     found.print_summary()
     for name, splits in found.splits.items():
         print_split(name, found.times[name], splits, args.goal)
-    if found.mismatches:
+    if found.mismatches or found.crashed.get("new"):
         sys.exit(1)
 
 
@@ -421,6 +444,8 @@ class Comparison:
     compared: bool
     #: ``--split``: each request's :class:`SplitClock` figures, by side.
     splits: dict[str, list[dict[str, float]]] = field(default_factory=dict)
+    #: The requests each side crashed on (whether or not the other side did too).
+    crashed: dict[str, list[str]] = field(default_factory=dict)
 
     def figures(self, name: str) -> tuple[float, float, float, float]:
         """Median, p95, max and total CPU seconds of side ``name``."""
@@ -434,6 +459,9 @@ class Comparison:
                   f"p95 {p95:.3f} s, max {most:.3f} s, total {total:.1f} s")
         for name, counts in self.work.items():
             print(f"{name}: work " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+        for name, labels in self.crashed.items():
+            if labels:
+                print(f"{name}: crashed on {len(labels)}: {', '.join(labels)}")
         if self.compared:
             print(f"identical: {self.requests - len(self.mismatches)}/{self.requests}")
             for label, why in self.mismatches:
@@ -455,6 +483,7 @@ def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] |
         times: dict[str, list[float]] = {w.name: [] for w in sides}
         splits: dict[str, list[dict[str, float]]] = {w.name: [] for w in sides} if split else {}
         mismatches = []
+        crashed: dict[str, list[str]] = {w.name: [] for w in sides}
         work: dict[str, dict[str, int]] = {}
         if save:
             save.mkdir(parents=True, exist_ok=True)
@@ -466,6 +495,8 @@ def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] |
                 if name not in times:
                     continue
                 times[name].append(answer["seconds"])
+                if "crashed" in answer["result"]:
+                    crashed[name].append(case["label"])
                 if split:
                     splits[name].append(answer["split"])
                 if save:
@@ -496,7 +527,7 @@ def compare(todo: list[dict], baseline: str | None = None, env: dict[str, str] |
             echo(f"{i:3d} {case['label']:<52} {line}  {digest(decided(answers['new']['result']))}  {same}")
         for w in sides:
             w.close()
-    return Comparison(times, mismatches, work, len(todo), bool(baseline or reference), splits)
+    return Comparison(times, mismatches, work, len(todo), bool(baseline or reference), splits, crashed)
 
 
 if __name__ == "__main__":

@@ -118,3 +118,60 @@ def test_what_if_reads_the_p95_at_bench_aeps_rank():
     splits = [{"lapack": 0.0, "joint": 0.0, "lapack_joint": 0.0}] * 20
     rows, factors = bench_aep_speed.what_if(seconds, splits, goal=0.5)
     assert rows[0][2] == 0.1 and set(factors.values()) == {1.0}
+
+
+def test_random_requests_can_come_from_another_sample_of_shapes(tmp_path):
+    """``--sample`` draws other val shapes for the random-seed requests (labelled with the
+    sample), each with bench_aep's three seeds; sample 0 is bench_aep's own."""
+    from bench_aep import seeds_for
+
+    from parsel_core.loading import load_shape
+
+    fixtures = ROOT / "plugins" / "parsel-shapeassembly" / "tests" / "fixtures"
+    for category in ("chair", "table", "storage"):
+        programs = sorted((fixtures / category).glob("*.txt"))[:3]
+        (tmp_path / "splits" / category).mkdir(parents=True)
+        (tmp_path / "splits" / category / "val.txt").write_text("\n".join(p.stem for p in programs))
+        (tmp_path / category).mkdir()
+        for program in programs:
+            (tmp_path / category / program.name).write_text(program.read_text())
+    drawn = {}
+    for sample in range(6):
+        found = bench_aep_speed.cases(9, 0, False, tmp_path, shapes=3, sample=sample)
+        assert len(found) == 9
+        assert all(c["label"].startswith("random-" if sample == 0 else f"random{sample}-") for c in found)
+        specs = [c["spec"] for c in found]
+        assert [c["seed"] for c in found] == [s for spec in dict.fromkeys(specs)
+                                              for s in seeds_for(load_shape(spec))]
+        drawn[sample] = tuple(dict.fromkeys(specs))
+    assert len(set(drawn.values())) > 1  # (other samples, other shapes)
+
+
+def test_a_crash_is_a_result_of_its_side_not_the_end_of_the_run():
+    """A request the solver fails on (an exception other than its refusals) is answered
+    as ``crashed``, so the run goes on and the crash is listed; a refusal stays an error."""
+    import contextlib
+    import io
+
+    from parsel_core.errors import ParselError
+    from parsel_core.plugins import solvers
+
+    class Failing:
+        def __init__(self, exc):
+            self.exc = exc
+
+        def run(self, request):
+            raise self.exc
+
+    case = requests()[0]
+    shapes = {}
+    _, out = bench_aep_speed.solve_case(Failing(ValueError("cannot reshape")), shapes, case)
+    assert out == {"crashed": "ValueError: cannot reshape"}
+    _, out = bench_aep_speed.solve_case(Failing(ParselError("no such part")), shapes, case)
+    assert out == {"error": "ParselError: no such part"}
+    seconds, out = bench_aep_speed.solve_case(solvers()["aep"], shapes, case)
+    assert seconds > 0 and set(out) == {"program", "rejected", "stats"} and list(shapes) == ["tiny_table"]
+    summary = bench_aep_speed.Comparison({"new": [0.1]}, [], {}, 1, False, crashed={"new": ["tiny-0"]})
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        summary.print_summary()
+    assert "new: crashed on 1: tiny-0" in printed.getvalue().splitlines()

@@ -24,8 +24,8 @@ differ; their totals are printed at the end.
         [--sample SEED] [--shapes 100]
 
 ``--sample`` draws the random-seed requests' shapes afresh (another seed than
-``bench_aep.py``'s 0), so a change can also be checked on shapes its author never looked
-at; ``--shapes`` how many are drawn.
+``bench_aep.py``'s 0), so a change is also checked on shapes it was not measured on;
+``--shapes`` how many are drawn.
 
 Without ``--baseline`` only the working tree runs (CPU times and, with ``--save``, the
 outputs, one JSON file per request).

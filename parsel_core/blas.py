@@ -81,6 +81,12 @@ def _controller():
     return ThreadpoolController()  # finds the loaded BLAS libraries once per process
 
 
+def forget_libraries() -> None:
+    """Look for the loaded BLAS libraries again at the next outermost block: one loaded
+    since (scipy's LAPACK wrappers bring their own OpenBLAS) is then limited too."""
+    _controller.cache_clear()
+
+
 @contextmanager
 def one_blas_thread() -> Iterator[None]:
     """A context in which BLAS runs on one thread; the pool is restored on leaving it.

@@ -22,6 +22,7 @@ cluster's edits only when the whole shape's error goes down.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -30,7 +31,7 @@ import numpy as np
 from parsel_aep.candidates import _vec
 from parsel_aep.compound import Compound, orthogonal_axes, translations
 from parsel_aep.screening import _Batch, relation_max_errors, residual_slices
-from parsel_core.blas import one_blas_thread
+from parsel_core.blas import forget_libraries, one_blas_thread
 from parsel_core.ops import Scale1D, Scale3D, Shear
 from parsel_core.relations import Relation
 
@@ -264,13 +265,16 @@ class _Numerics:
         #: The latest singular values found by a solve on each prior (:meth:`deficient`).
         self.spectra: dict[bytes, list[tuple[np.ndarray, np.ndarray | None, float, float]]] = {}
         self.gathers: dict = {}
+        #: Solves made by gelsy (:func:`_orthogonal_lstsq`) rather than gelsd.
+        self.orthogonal: set = set()
         self.exact = _Numerics(system, fast=False) if fast else self
 
     def amounts(self, columns: np.ndarray, rows: np.ndarray | None = None,
                 prior: np.ndarray | None = None) -> np.ndarray:
         """The amounts (S, B) of :func:`solver`'s matrix on ``r0``; fast: solved directly by
         least squares on one BLAS thread (LAPACK gelsd, the same minimum-norm solution with
-        the same cutoff), refused near the cutoff, amounts with a zero prior left out."""
+        the same cutoff, or gelsy where it is proved to be that solution: see
+        :meth:`settled`), refused near the cutoff, amounts with a zero prior left out."""
         if not self.fast:
             return _amounts(self.system, solver(self.system, columns, rows, prior), columns)
         p = _prior(self.system) if prior is None else prior
@@ -290,17 +294,44 @@ class _Numerics:
             with one_blas_thread():
                 y = None if direct and self.deficient(columns, rows, p, a) else _conditioned_lstsq(a / norm, b)
                 if y is None:
-                    spectrum: list[np.ndarray] = []
+                    spectrum: list[tuple[float, float, int]] = []
                     try:
-                        y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
+                        if direct:
+                            y = _orthogonal_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
+                            if y is not None:
+                                self.orthogonal.add(key)
+                        if y is None:
+                            y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
                     finally:
                         if direct and spectrum:
-                            self.remember(columns, rows, p, spectrum[0] * norm)
+                            smallest, largest, count = spectrum[0]
+                            self.remember(columns, rows, p, smallest * norm, largest * norm, count)
                 else:
                     self.conditioned.add(key)
-            out = np.zeros((len(p), b.shape[1]))
-            out[live] = p[live, None] * y / norm
-            out = self.solved[key] = -out.T
+            out = self.solved[key] = _spread(p, live, y, norm)
+        return out
+
+    def settled(self, f: np.ndarray, columns: np.ndarray, rows: np.ndarray | None) -> np.ndarray:
+        """``f``, or when it is gelsy's solve on these columns and rows (default prior) the
+        same solve by gelsd. The drop steps and the L1 fit decide on residuals, which any
+        backward-stable solve gives alike; the amounts themselves, along directions near
+        pinv's cutoff, agree only to ``~cond u`` (1e-7 at a condition of 1e9), and FOCUSS
+        starts from them: it starts from gelsd's, as before."""
+        p = _prior(self.system)
+        key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+        if key not in self.orthogonal or self.solved.get(key) is not f:
+            return f
+        live = np.flatnonzero(p)
+        slopes, r0 = self.gathered(columns, live)
+        a, b = _weighted(slopes * p[live], r0, rows)
+        norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+        try:
+            with one_blas_thread():
+                y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)
+        except _REFUSED:  # (gelsd would not have decided this step: the exact amounts)
+            return self.exact.amounts(columns, rows)
+        self.orthogonal.discard(key)
+        out = self.solved[key] = _spread(p, live, y, norm)
         return out
 
     def deficient(self, columns: np.ndarray, rows: np.ndarray | None, p: np.ndarray, a: np.ndarray) -> bool:
@@ -335,9 +366,11 @@ class _Numerics:
                 return True
         return False
 
-    def remember(self, columns: np.ndarray, rows: np.ndarray | None, p: np.ndarray, s: np.ndarray) -> None:
-        """Keep the singular values ``s`` of the weighted system on ``columns`` (the last two per prior)."""
-        if not 0 < np.count_nonzero(p) <= len(s):  # (fewer rows than amounts: nothing to bound)
+    def remember(self, columns: np.ndarray, rows: np.ndarray | None, p: np.ndarray, smallest: float,
+                 largest: float, count: int) -> None:
+        """Keep bounds from above of the smallest and the largest of the ``count`` singular
+        values of the weighted system on ``columns`` (the last two per prior)."""
+        if not 0 < np.count_nonzero(p) <= count:  # (fewer rows than amounts: nothing to bound)
             return
         mask = np.zeros(self.system.slopes.shape[1], dtype=bool)
         mask[columns] = True
@@ -346,7 +379,7 @@ class _Numerics:
             full = np.zeros(len(mask))
             full[columns] = rows
         kept = self.spectra.setdefault(p.tobytes(), [])
-        kept.append((mask, full, float(s.min()), float(s.max())))
+        kept.append((mask, full, float(smallest), float(largest)))
         del kept[:-2]
 
     def gathered(self, columns: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -424,6 +457,14 @@ class _Numerics:
         return bool(value > 0)
 
 
+def _spread(p: np.ndarray, live: np.ndarray, y: np.ndarray, norm: float) -> np.ndarray:
+    """The amounts (S, B) from a solve ``y`` (B', S) of the ``live`` amounts' system scaled
+    by ``1 / norm`` with the prior ``p`` (the others zero)."""
+    out = np.zeros((len(p), y.shape[1]))
+    out[live] = p[live, None] * y / norm
+    return -out.T
+
+
 def _weighted(a: np.ndarray, b: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """The least-squares problem ``min |a y - b|`` with its rows weighted by ``rows``."""
     if rows is None:
@@ -435,13 +476,13 @@ def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float,
                    spectrum: list | None = None) -> np.ndarray:
     """``np.linalg.pinv(a, rcond) @ b`` by ``np.linalg.lstsq`` (singular values up to
     ``rcond`` times the largest count as zero in both), refused (:class:`_Borderline`) when
-    a singular value is within ``margin`` (relative) of that cutoff; the singular values
-    are appended to ``spectrum``."""
+    a singular value is within ``margin`` (relative) of that cutoff. ``(smallest, largest,
+    count)`` of the singular values are appended to ``spectrum``."""
     if a.size == 0:
         return np.zeros((a.shape[1], b.shape[1]))
     y, _, _, s = np.linalg.lstsq(a, b, rcond=rcond)
     if spectrum is not None:
-        spectrum.append(s)
+        spectrum.append((float(s.min()), float(s.max()), len(s)))
     cutoff = rcond * s.max(initial=0.0)
     if not cutoff > 0:  # a zero matrix (or not finite: refused)
         if np.all(s == 0):
@@ -449,6 +490,95 @@ def _guarded_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float,
         raise _Borderline
     if np.any(np.abs(s - cutoff) <= margin * cutoff) or not np.all(np.isfinite(y)):
         raise _Borderline
+    return y
+
+
+#: How far the complete orthogonal solution may lie from pinv's, relative: a hundredth of
+#: the decisions' margin (:attr:`_Numerics.MARGIN`).
+ORTHOGONAL_DRIFT = 1e-8
+
+
+@functools.cache
+def lapack_wrappers():
+    """scipy's LAPACK wrappers (its ``scipy.linalg._flapack`` extension), or ``None``.
+
+    Loaded from their file, without the rest of ``scipy.linalg``: importing the package
+    takes about 0.36 s of CPU (``numpy.ma`` and most of scipy.linalg with it), the
+    extension alone 8 ms, and a command that solves one small shape must not pay the
+    former. Where scipy is laid out otherwise the joint pass keeps to numpy's gelsd.
+    The extension brings scipy's own OpenBLAS, which :func:`one_blas_thread` must find
+    to keep on one thread: call this before entering the solve's block."""
+    import importlib.machinery
+    import importlib.util
+    from pathlib import Path
+
+    name = "scipy.linalg._flapack"
+    try:
+        found = importlib.util.find_spec("scipy")
+        folder = Path(found.origin).parent / "linalg"
+        path = next(folder / f"_flapack{suffix}" for suffix in importlib.machinery.EXTENSION_SUFFIXES
+                    if (folder / f"_flapack{suffix}").is_file())
+        loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+        module = importlib.util.module_from_spec(importlib.util.spec_from_file_location(name, path, loader=loader))
+        loader.exec_module(module)
+    except (ImportError, AttributeError, StopIteration, OSError):  # (no scipy, or laid out otherwise)
+        return None
+    if not all(hasattr(module, f) for f in ("dgelsy", "dgelsy_lwork", "dtrtri")):
+        return None
+    forget_libraries()
+    return module
+
+
+@functools.lru_cache(maxsize=256)
+def _gelsy_work(m: int, n: int, columns: int) -> int:
+    """gelsy's workspace for an m x n system with ``columns`` right-hand sides."""
+    return int(lapack_wrappers().dgelsy_lwork(m, n, columns, 1e-9)[0])
+
+
+def _orthogonal_lstsq(a: np.ndarray, b: np.ndarray, rcond: float, margin: float,
+                      spectrum: list | None = None) -> np.ndarray | None:
+    """``pinv(a, rcond) @ b`` for a tall ``a`` by LAPACK's gelsy, about half gelsd's CPU, or
+    ``None`` where its rank is not proved to be pinv's.
+
+    gelsy factors ``a P = Q [R11 R12; 0 R22]`` (QR with column pivoting), keeps the r
+    columns it finds independent and solves through ``[R11 R12] = [T11 0] Z``. The SVD
+    would keep the same r singular values when, each by ``margin``, the r-th is above
+    pinv's cutoff and the next below it: ``s_r(a) >= s_min(T11) >= 1 / |T11^-1|_F`` (rows
+    taken away cannot raise a singular value), ``s_(r+1)(a) <= |R22|_F``, and the cutoff
+    lies between ``rcond`` times ``a``'s longest column and ``rcond |a|_F``. The two
+    minimum-norm solutions then differ by a relative ``~|R22| / s_min(T11)`` (the
+    decomposition is of ``a`` less ``R22``), held below :data:`ORTHOGONAL_DRIFT`. The
+    drop steps' and the L1 fit's systems mostly pass (an exact null space, the rest well
+    conditioned); FOCUSS's priors spread the singular values across the cutoff, so its
+    (compressed) solves go to gelsd directly.
+    """
+    m, n = a.shape
+    if m < n or not np.all(np.isfinite(a)):
+        return None
+    lapack = lapack_wrappers()
+    if lapack is None:
+        return None
+    factors, x, _, rank, info = lapack.dgelsy(a, b, np.zeros(n, dtype=np.int32), rcond,
+                                              lwork=_gelsy_work(m, n, b.shape[1]))
+    r = int(rank)
+    if info != 0 or r == 0:
+        return None
+    inverse, info = lapack.dtrtri(factors[:r, :r])  # (T11^-1, from the upper triangle only)
+    if info != 0:
+        return None
+    inverse = np.triu(inverse)
+    kept = 1.0 / float(np.sqrt(np.einsum("ij,ij->", inverse, inverse)))
+    rest = np.triu(factors[r:n, r:n])
+    dropped = float(np.sqrt(np.einsum("ij,ij->", rest, rest)))
+    frobenius = float(np.sqrt(np.einsum("ij,ij->", a, a)))
+    longest = float(np.sqrt(np.einsum("ij,ij->j", a, a).max()))
+    y = x[:n]
+    if not (kept > (1 + margin) * rcond * frobenius and dropped < (1 - margin) * rcond * longest
+            and dropped <= ORTHOGONAL_DRIFT * kept and np.all(np.isfinite(y))):
+        return None
+    if spectrum is not None:  # (s_n <= |R22| when columns were dropped, else <= T11's least pivot)
+        smallest = dropped if r < n else float(np.abs(np.diag(factors)[:r]).min())
+        spectrum.append((smallest, frobenius, n))
     return y
 
 
@@ -675,6 +805,8 @@ def plan(system: ClusterSystem) -> Plan:
     """The constraints :func:`solve` keeps (its sparse amounts still to solve)."""
     numerics = _Numerics(system, fast=True)
     kept, f = _plan(system, numerics)
+    if kept:
+        f = numerics.settled(f, _columns(system, kept), _row_weights(system, kept))
     return Plan(system, kept, f, numerics)
 
 

@@ -1343,6 +1343,7 @@ def propagate(request: SolveRequest) -> SolveResult:
     program the same bits whatever the number of cores (not whatever the processor:
     docs/aep.md). The cyclic garbage collector runs less often meanwhile
     (parsel_core.collector)."""
+    cluster_module.lapack_wrappers()  # (before the block: their OpenBLAS is kept on one thread too)
     with one_blas_thread(), fewer_collections():
         return Propagation(request).run()
 

@@ -247,3 +247,26 @@ def test_a_breaking_edit_does_not_import_numpy_masked_arrays(parsel_fresh_python
             "result = solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
             "print(result.stats['breaking_edits'] >= 1, 'numpy.ma' in sys.modules)")
     assert parsel_fresh_python(code).split() == ["True", "False"]
+
+
+def test_the_lapack_wrappers_blas_runs_on_one_thread_in_a_solve(parsel_fresh_python):
+    """gelsy comes with scipy's own OpenBLAS: in a process whose BLAS was not started on
+    one thread, a solve still runs it on one thread (one_blas_thread finds it)."""
+    code = ("import os, sys\n"
+            "for name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):\n"
+            "    os.environ.pop(name, None)\n"
+            "from threadpoolctl import threadpool_info\n"
+            "from parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
+            "from parsel_core.interfaces import SolveRequest\nfrom parsel_core.plugins import solvers\n"
+            "from parsel_aep import cluster\n"
+            "pools = []\n"
+            "gelsy = cluster._orthogonal_lstsq\n"
+            "def spy(*a, **k):\n"
+            "    pools.extend(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas')\n"
+            "    return gelsy(*a, **k)\n"
+            "cluster._orthogonal_lstsq = spy\n"
+            "hints = {leg: 'translate' for leg in ('leg_bl', 'leg_br', 'leg_fl', 'leg_fr')}\n"
+            "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
+            "solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
+            "print(len(pools) > 1, set(pools) == {1})")
+    assert parsel_fresh_python(code).split() == ["True", "True"]

@@ -1034,7 +1034,8 @@ def test_a_solve_proved_deficient_from_an_earlier_spectrum_would_fail_the_condit
     numerics = cluster._Numerics(SimpleNamespace(slopes=np.zeros((n, k))), fast=True)
     prior = np.ones(n)
     rows = rng.uniform(0.5, 2.0, k)
-    numerics.remember(np.arange(k), rows, prior, np.linalg.svd(a * rows[:, None], compute_uv=False))
+    s = np.linalg.svd(a * rows[:, None], compute_uv=False)
+    numerics.remember(np.arange(k), rows, prior, s.min(), s.max(), len(s))
     skipped = 0
     for trial in range(20):
         columns = np.sort(rng.choice(k, size=int(rng.integers(n + 5, k + 1)), replace=False))
@@ -1148,3 +1149,79 @@ def test_candidates_moving_no_constraint_leave_an_empty_table():
     table = screening.screen_table(candidates, {"p": box.corners}, others, [contact], 1e-3)
     assert len(table.index) == len(table.finite) == len(table.order) == 0
     assert screening.screen(candidates, {"p": box.corners}, others, [contact], 1e-3) == []
+
+
+def spectrum_matrix(rng, shape, values):
+    """A (m, n) matrix with the given singular values (the rest of them zero)."""
+    u, _ = np.linalg.qr(rng.normal(size=(shape[0], shape[1])))
+    v, _ = np.linalg.qr(rng.normal(size=(shape[1], shape[1])))
+    s = np.zeros(shape[1])
+    s[:len(values)] = values
+    return (u * s) @ v.T
+
+
+@pytest.mark.parametrize("null", [0, 1, 4])
+def test_orthogonal_lstsq_is_pinvs_solution_where_it_proves_the_rank(null):
+    """A tall system with an exact null space and the rest well conditioned (the drop
+    steps' and the L1 fit's): gelsy's rank is proved to be pinv's and its solution is
+    pinv's; the bounds it reports hold the smallest and largest singular values."""
+    rng = np.random.default_rng(null)
+    n = 12
+    a = spectrum_matrix(rng, (40, n), rng.uniform(1e-4, 1.0, n - null))
+    b = rng.normal(size=(40, 5))
+    spectrum = []
+    got = cluster._orthogonal_lstsq(a, b, 1e-9, 1e-4, spectrum)
+    want = np.linalg.pinv(a, rcond=1e-9) @ b
+    assert got is not None and np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
+    s = np.linalg.svd(a, compute_uv=False)
+    (smallest, largest, count), = spectrum
+    assert s.min() <= smallest and s.max() <= largest and count == n
+
+
+@pytest.mark.parametrize("smallest", [1e-9 * (1 + 1e-6), 1e-9 * (1 - 1e-6), 1.5e-9, 3e-9, 1e-11, 1e-7])
+def test_orthogonal_lstsq_is_pinvs_or_leaves_the_rank_to_the_svd(smallest):
+    """A singular value near pinv's cutoff: where gelsy's rank is proved its solution is
+    pinv's: the residuals to rounding, the amounts to ``~cond u`` (here 1e-7 of the
+    largest, along the direction of the singular value near the cutoff); at the cutoff
+    itself it is not proved and the SVD refuses to decide; a wide system is always left
+    to the SVD."""
+    rng = np.random.default_rng(5)
+    a = spectrum_matrix(rng, (40, 8), [1.0, 0.5, 0.3, 0.2, 0.1, 0.05, 0.01, smallest])
+    b = rng.normal(size=(40, 3))
+    want = np.linalg.pinv(a, rcond=1e-9) @ b
+    got = cluster._orthogonal_lstsq(a, b, 1e-9, 1e-4)
+    if got is not None:  # (relative to |b| + |a| |y|: ORTHOGONAL_DRIFT and rounding)
+        scale = np.abs(b).max() + np.abs(a).max() * np.abs(want).max()
+        assert np.abs(a @ got - a @ want).max() <= cluster.ORTHOGONAL_DRIFT * scale
+        assert np.abs(got - want).max() <= 1e-6 * np.abs(want).max()
+    if abs(smallest - 1e-9) <= 1e-4 * 1e-9:
+        assert got is None
+        with pytest.raises(cluster._Borderline):
+            cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
+    assert cluster._orthogonal_lstsq(rng.normal(size=(5, 8)), rng.normal(size=(5, 3)), 1e-9, 1e-4) is None
+
+
+def test_a_solve_with_a_null_space_decides_through_gelsy_and_is_the_exact_solve(monkeypatch):
+    """Repeated basis amounts (an exact null space): the drop steps and the L1 fit solve
+    by gelsy, proved, and the whole solve is still bitwise the exact one."""
+    rng = np.random.default_rng(2)
+    system = random_system(rng, parts=3, constraints=40, rank_loss=2, conflict=0.05)
+    proved = []
+    orthogonal = cluster._orthogonal_lstsq
+    monkeypatch.setattr(cluster, "_orthogonal_lstsq",
+                        lambda *a, **k: (lambda y: proved.append(y is not None) or y)(orthogonal(*a, **k)))
+    assert_solve_is_the_exact_solve(system)
+    assert sum(proved) > 3
+
+
+def test_the_amounts_focuss_starts_from_are_gelsds_not_gelsys(monkeypatch):
+    """gelsy's amounts agree with pinv's only to ``~cond u`` along directions near the
+    cutoff; the plan's least-costed amounts, where FOCUSS starts, are those of a plan
+    without gelsy, to the bit."""
+    rng = np.random.default_rng(2)
+    system = random_system(rng, parts=3, constraints=40, rank_loss=2, conflict=0.05)
+    found = cluster.plan(fresh_copy(system))
+    assert found.numerics.orthogonal  # (the drop steps did go through gelsy)
+    monkeypatch.setattr(cluster, "_orthogonal_lstsq", lambda *a, **k: None)
+    plain = cluster.plan(fresh_copy(system))
+    assert found.kept == plain.kept and found.f.tobytes() == plain.f.tobytes()

@@ -81,6 +81,12 @@ def _controller():
     return ThreadpoolController()  # finds the loaded BLAS libraries once per process
 
 
+def started_on_one_thread() -> bool:
+    """Whether this process's BLAS was started on one thread (:func:`start_on_one_thread`):
+    then so is any BLAS library it loads later, which reads the same variables."""
+    return _started_single
+
+
 def forget_libraries() -> None:
     """Look for the loaded BLAS libraries again at the next outermost block: one loaded
     since (scipy's LAPACK wrappers bring their own OpenBLAS) is then limited too."""

@@ -507,7 +507,8 @@ def lapack_wrappers():
     extension alone 8 ms, and a command that solves one small shape must not pay the
     former. Where scipy is laid out otherwise the joint pass keeps to numpy's gelsd.
     The extension brings scipy's own OpenBLAS, which :func:`one_blas_thread` must find
-    to keep on one thread: call this before entering the solve's block."""
+    to keep on one thread: a process whose BLAS was not started on one thread calls this
+    before entering the solve's block (:func:`~parsel_aep.propagate.propagate`)."""
     import importlib.machinery
     import importlib.util
     from pathlib import Path

@@ -65,7 +65,7 @@ from parsel_aep.selection import HIGH_DISTORTION, arap_energies, symmetry_plane_
 from parsel_aep.tau import automatic_tau
 from parsel_aep.transfer import transfer
 from parsel_core import opmath
-from parsel_core.blas import one_blas_thread
+from parsel_core.blas import one_blas_thread, started_on_one_thread
 from parsel_core.collector import fewer_collections
 from parsel_core.errors import ParselError, UnknownPartError
 from parsel_core.graph import GROUP_KINDS, ShapeGraph
@@ -1343,7 +1343,8 @@ def propagate(request: SolveRequest) -> SolveResult:
     program the same bits whatever the number of cores (not whatever the processor:
     docs/aep.md). The cyclic garbage collector runs less often meanwhile
     (parsel_core.collector)."""
-    cluster_module.lapack_wrappers()  # (before the block: their OpenBLAS is kept on one thread too)
+    if not started_on_one_thread():  # (else they load at the first system they solve, on one thread)
+        cluster_module.lapack_wrappers()  # (before the block, which then keeps their OpenBLAS on one thread)
     with one_blas_thread(), fewer_collections():
         return Propagation(request).run()
 

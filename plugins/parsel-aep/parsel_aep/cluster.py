@@ -287,8 +287,7 @@ class _Numerics:
                 r, b = compressed
                 a = r[:, live] * p[live]
             else:
-                slopes, r0 = self.gathered(columns, live)
-                a, b = _weighted(slopes * p[live], r0, rows)                             # (K', B'), (K', S)
+                a, b = self.weighted(columns, live, p, rows)                             # (K', B'), (K', S)
             norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
             direct = compressed is None
             with one_blas_thread():
@@ -322,8 +321,7 @@ class _Numerics:
         if key not in self.orthogonal or self.solved.get(key) is not f:
             return f
         live = np.flatnonzero(p)
-        slopes, r0 = self.gathered(columns, live)
-        a, b = _weighted(slopes * p[live], r0, rows)
+        a, b = self.weighted(columns, live, p, rows)
         norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
         try:
             with one_blas_thread():
@@ -381,6 +379,13 @@ class _Numerics:
         kept = self.spectra.setdefault(p.tobytes(), [])
         kept.append((mask, full, float(smallest), float(largest)))
         del kept[:-2]
+
+    def weighted(self, columns: np.ndarray, live: np.ndarray, p: np.ndarray, rows: np.ndarray | None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """The least-squares problem of a direct solve: the ``live`` amounts' slopes on
+        ``columns`` scaled by the prior ``p``, and the residuals, rows weighted by ``rows``."""
+        slopes, r0 = self.gathered(columns, live)
+        return _weighted(slopes * p[live], r0, rows)
 
     def gathered(self, columns: np.ndarray, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The slopes (K', B') of the ``live`` amounts on ``columns`` and the residuals there

@@ -237,27 +237,30 @@ def test_options_take_numpy_numbers_and_none():
     assert (options.joint, options.tau, options.tau_max, options.samples) == (0, None, 0.5, 9)
 
 
+#: Python for a fresh interpreter: a solve of the tiny table that takes breaking-edits
+#: (its top raised, its legs hinted to translate), its result as ``result``.
+BREAKING_EDIT = ("from parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
+                 "from parsel_core.interfaces import SolveRequest\nfrom parsel_core.plugins import solvers\n"
+                 "hints = {leg: 'translate' for leg in ('leg_bl', 'leg_br', 'leg_fl', 'leg_fr')}\n"
+                 "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
+                 "result = solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n")
+
+
 def test_a_breaking_edit_does_not_import_numpy_masked_arrays(parsel_fresh_python):
     """``numpy.ma`` (20-30 ms of a command's start-up) stays unloaded by a solve that takes
     breaking-edits (breaking.py groups its rows without ``np.unique``)."""
-    code = ("import sys\nfrom parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
-            "from parsel_core.interfaces import SolveRequest\nfrom parsel_core.plugins import solvers\n"
-            "hints = {leg: 'translate' for leg in ('leg_bl', 'leg_br', 'leg_fl', 'leg_fr')}\n"
-            "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
-            "result = solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
-            "print(result.stats['breaking_edits'] >= 1, 'numpy.ma' in sys.modules)")
+    code = ("import sys\n" + BREAKING_EDIT
+            + "print(result.stats['breaking_edits'] >= 1, 'numpy.ma' in sys.modules)")
     assert parsel_fresh_python(code).split() == ["True", "False"]
 
 
 def test_the_lapack_wrappers_blas_runs_on_one_thread_in_a_solve(parsel_fresh_python):
     """gelsy comes with scipy's own OpenBLAS: in a process whose BLAS was not started on
     one thread, a solve still runs it on one thread (one_blas_thread finds it)."""
-    code = ("import os, sys\n"
+    code = ("import os\n"
             "for name in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS', 'MKL_NUM_THREADS'):\n"
             "    os.environ.pop(name, None)\n"
             "from threadpoolctl import threadpool_info\n"
-            "from parsel_core import Program\nfrom parsel_core.examples import tiny_table\n"
-            "from parsel_core.interfaces import SolveRequest\nfrom parsel_core.plugins import solvers\n"
             "from parsel_aep import cluster\n"
             "pools = []\n"
             "gelsy = cluster._orthogonal_lstsq\n"
@@ -265,8 +268,5 @@ def test_the_lapack_wrappers_blas_runs_on_one_thread_in_a_solve(parsel_fresh_pyt
             "    pools.extend(i['num_threads'] for i in threadpool_info() if i['user_api'] == 'blas')\n"
             "    return gelsy(*a, **k)\n"
             "cluster._orthogonal_lstsq = spy\n"
-            "hints = {leg: 'translate' for leg in ('leg_bl', 'leg_br', 'leg_fl', 'leg_fr')}\n"
-            "seed = Program.from_text('translate(top, dir=(0, 1, 0), amount=x)')\n"
-            "solvers()['aep'].run(SolveRequest(tiny_table(), seed, hints=hints))\n"
-            "print(len(pools) > 1, set(pools) == {1})")
+            + BREAKING_EDIT + "print(len(pools) > 1, set(pools) == {1})")
     assert parsel_fresh_python(code).split() == ["True", "True"]

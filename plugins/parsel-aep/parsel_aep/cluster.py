@@ -191,6 +191,13 @@ def _amounts(system: ClusterSystem, matrix: np.ndarray, columns: np.ndarray) -> 
     return -(matrix @ system.r0[:, columns].T).T
 
 
+def _solve_key(columns: np.ndarray, rows: np.ndarray | None, prior: np.ndarray) -> tuple:
+    """What a solve on ``columns`` with row weights ``rows`` and ``prior`` is remembered by,
+    in :func:`solver`'s memo and in :class:`_Numerics`', where :meth:`_Numerics.settled` and
+    :meth:`_Numerics.determined` look up what :meth:`_Numerics.amounts` solved."""
+    return columns.tobytes(), None if rows is None else rows.tobytes(), prior.tobytes()
+
+
 def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None = None,
            prior: np.ndarray | None = None) -> np.ndarray:
     """``P pinv(W S^T P) W`` (B, K'): the amounts from the residual columns that minimise
@@ -201,7 +208,7 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
     when the system can be met exactly).
     """
     p = _prior(system) if prior is None else prior
-    key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+    key = _solve_key(columns, rows, p)
     out = system.solved.get(key)
     if out is not None:
         return out
@@ -278,7 +285,7 @@ class _Numerics:
         if not self.fast:
             return _amounts(self.system, solver(self.system, columns, rows, prior), columns)
         p = _prior(self.system) if prior is None else prior
-        key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+        key = _solve_key(columns, rows, p)
         out = self.solved.get(key)
         if out is None:
             live = np.flatnonzero(p)
@@ -317,7 +324,7 @@ class _Numerics:
         pinv's cutoff, agree only to ``~cond u`` (1e-7 at a condition of 1e9), and FOCUSS
         starts from them: it starts from gelsd's, as before."""
         p = _prior(self.system)
-        key = (columns.tobytes(), None if rows is None else rows.tobytes(), p.tobytes())
+        key = _solve_key(columns, rows, p)
         if key not in self.orthogonal or self.solved.get(key) is not f:
             return f
         live = np.flatnonzero(p)
@@ -399,7 +406,7 @@ class _Numerics:
     def determined(self, columns: np.ndarray, rows: np.ndarray | None) -> bool:
         """Whether the kept constraints determine every live amount: the fast solve with the
         default prior on these columns and rows was proved to have full column rank."""
-        key = (columns.tobytes(), None if rows is None else rows.tobytes(), _prior(self.system).tobytes())
+        key = _solve_key(columns, rows, _prior(self.system))
         return self.fast and key in self.conditioned
 
     def compressed(self, columns: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:

@@ -510,17 +510,42 @@ def test_conditioned_lstsq_is_the_least_squares_solution(shape):
     assert got is not None and np.allclose(got, want, rtol=1e-10, atol=1e-12 * np.abs(want).max())
 
 
-def test_conditioned_lstsq_declines_what_it_cannot_prove():
+@pytest.mark.parametrize("wrappers", [True, False])
+def test_conditioned_lstsq_declines_what_it_cannot_prove(wrappers, monkeypatch):
+    """With scipy's LAPACK wrappers (potrf, posv, potrs) and with numpy's Cholesky and LU
+    solves where they cannot be loaded: the same proofs, the same solutions."""
+    if not wrappers:
+        monkeypatch.setattr(cluster, "lapack_wrappers", lambda: None)
+    elif cluster.lapack_wrappers() is None:
+        pytest.skip("scipy's LAPACK wrappers are not available")
     rng = np.random.default_rng(2)
     u, _ = np.linalg.qr(rng.normal(size=(30, 6)))
     v, _ = np.linalg.qr(rng.normal(size=(6, 6)))
     b = rng.normal(size=(30, 3))
-    assert cluster._conditioned_lstsq(u @ np.diag([1, 1, 1, 1, 1, 1e-3]) @ v.T, b) is not None
+    a = u @ np.diag([1, 1, 1, 1, 1, 1e-3]) @ v.T
+    got = cluster._conditioned_lstsq(a, b)
+    assert got is not None and np.allclose(got, np.linalg.pinv(a, rcond=1e-9) @ b, rtol=1e-11, atol=1e-13)
     for smallest in (1e-7, 1e-12, 0.0):  # near or at pinv's cutoff: left to the SVD
         assert cluster._conditioned_lstsq(u @ np.diag([1, 1, 1, 1, 1, smallest]) @ v.T, b) is None
     assert cluster._conditioned_lstsq(rng.normal(size=(4, 6)), rng.normal(size=(4, 3))) is None  # wide
     assert cluster._conditioned_lstsq(np.zeros((30, 6)), b) is None
     assert cluster._conditioned_lstsq(np.full((30, 6), np.nan), b) is None
+
+
+def test_positive_definite_is_choleskys_verdict():
+    rng = np.random.default_rng(5)
+    q, _ = np.linalg.qr(rng.normal(size=(8, 8)))
+    for smallest in (1.0, 1e-8, 0.0, -1e-8, -1.0):
+        m = q @ np.diag([3.0, 2, 2, 1, 1, 1, 0.5, smallest]) @ q.T
+        m = (m + m.T) / 2
+        try:
+            np.linalg.cholesky(m)
+            want = True
+        except np.linalg.LinAlgError:
+            want = False
+        copy = m.copy()
+        assert cluster._positive_definite(m) is want
+        assert np.array_equal(m, copy)  # (the caller's matrix is left as it was)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -1105,8 +1130,8 @@ def test_a_column_too_short_for_the_conditioning_proof_fails_it_without_a_factor
     with pytest.raises(np.linalg.LinAlgError):  # what the proof itself would find
         np.linalg.cholesky(g - cluster.CONDITIONED ** 2 * top * np.eye(12))
     factorised = []
-    cholesky = np.linalg.cholesky
-    monkeypatch.setattr(np.linalg, "cholesky", lambda m: factorised.append(m) or cholesky(m))
+    proof = cluster._positive_definite
+    monkeypatch.setattr(cluster, "_positive_definite", lambda m: factorised.append(m) or proof(m))
     assert cluster._conditioned_lstsq(short, b) is None and not factorised
     kept = a.copy()
     kept[:, column] *= 1e-3  # (short, but well above the bound: still proved)

@@ -60,6 +60,34 @@ class ClusterSystem:
     #: system again (a kept set both drops reach, reweighting that has settled).
     solved: dict = field(default_factory=dict, repr=False, compare=False)
 
+    # What the solves read again and again, made once per system (read-only).
+
+    @functools.cached_property
+    def costed(self) -> np.ndarray:
+        """``displacement x cost`` per basis amount, 0 for amounts that move nothing."""
+        return _frozen(np.where(self.weights > _NEGLIGIBLE, self.weights * self.costs, 0.0))
+
+    @functools.cached_property
+    def prior(self) -> np.ndarray:
+        """``1 / (displacement x cost)`` per basis amount: what the least-squares solution weighs."""
+        c = self.costed
+        return _frozen(np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), 0.0))
+
+    @functools.cached_property
+    def sizes(self) -> np.ndarray:
+        """Each constraint's number of residual columns."""
+        return _frozen(np.array([s.stop - s.start for s in self.slices], dtype=int))
+
+    @functools.cached_property
+    def starts(self) -> np.ndarray:
+        """Each constraint's first residual column."""
+        return _frozen(np.array([s.start for s in self.slices], dtype=int))
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
 
 #: box_compound's bases by (part, rest corners, frame, shears): the joint pass builds the same
 #: parts' bases for every variant and ring (bounded; cleared when full).
@@ -124,7 +152,8 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
     def residuals(view, which=None) -> np.ndarray:
         blocks = [np.asarray(r.residual(view), dtype=float) for r in (constraints if which is None else which)]
         lead = np.broadcast_shapes(*(b.shape[:-1] for b in blocks))
-        return np.concatenate([np.broadcast_to(b, lead + b.shape[-1:]) for b in blocks], axis=-1)
+        return np.concatenate([b if b.shape[:-1] == lead else np.broadcast_to(b, lead + b.shape[-1:])
+                               for b in blocks], axis=-1)
 
     involved = {m for r in constraints for m in r.members}
     r0 = np.nan_to_num(residuals({m: corners[m] for m in involved}), nan=0.0, posinf=0.0, neginf=0.0)
@@ -176,14 +205,13 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
 
 
 def _costed(system: ClusterSystem) -> np.ndarray:
-    """``displacement x cost`` per basis amount, 0 for amounts that move nothing."""
-    return np.where(system.weights > _NEGLIGIBLE, system.weights * system.costs, 0.0)
+    """:attr:`ClusterSystem.costed`."""
+    return system.costed
 
 
 def _prior(system: ClusterSystem) -> np.ndarray:
-    """``1 / (displacement x cost)`` per basis amount: what the least-squares solution weighs."""
-    c = _costed(system)
-    return np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), 0.0)
+    """:attr:`ClusterSystem.prior`."""
+    return system.prior
 
 
 def _amounts(system: ClusterSystem, matrix: np.ndarray, columns: np.ndarray) -> np.ndarray:
@@ -230,9 +258,13 @@ def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
 
 
 def _columns(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
-    if not kept:
+    """The residual columns of the ``kept`` constraints, in their order."""
+    if not len(kept):
         return np.zeros(0, dtype=int)
-    return np.concatenate([np.arange(system.slices[i].start, system.slices[i].stop) for i in kept])
+    kept = np.asarray(kept, dtype=int)
+    sizes = system.sizes[kept]
+    # (each constraint's run start, start + 1, ...: a running count less each run's offset)
+    return np.arange(int(sizes.sum())) + np.repeat(system.starts[kept] - (np.cumsum(sizes) - sizes), sizes)
 
 
 class _Borderline(Exception):
@@ -679,7 +711,7 @@ def _sparse_breaks(system: ClusterSystem, iterations: int = 12, numerics: _Numer
 def _reweighted(system: ClusterSystem, iterations: int, numerics: _Numerics) -> list[int]:
     everything = list(range(len(system.constraints)))
     columns = _columns(system, everything)
-    sizes = np.array([s.stop - s.start for s in system.slices])
+    sizes = system.sizes
     relative = np.ones(len(everything))
     for _ in range(iterations):
         weight = 1.0 / (system.allowances * np.sqrt(np.maximum(relative, 1e-3)))
@@ -694,8 +726,10 @@ def _row_weights(system: ClusterSystem, kept: Sequence[int]) -> np.ndarray:
     """``1 / allowance`` for each residual column of the ``kept`` constraints: where not
     everything can be met exactly, the error goes to the relations that may drift most (a
     mirror pair detected 1% asymmetric takes 0.1% more before a contact does)."""
-    return np.concatenate([np.full(system.slices[i].stop - system.slices[i].start, 1.0 / system.allowances[i])
-                           for i in kept]) if kept else np.zeros(0)
+    if not len(kept):
+        return np.zeros(0)
+    kept = np.asarray(kept, dtype=int)
+    return np.repeat(1.0 / system.allowances[kept], system.sizes[kept])
 
 
 def _drop_until_kept(system: ClusterSystem, kept: list[int], numerics: _Numerics | None = None

@@ -243,13 +243,19 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
     a = system.slopes[:, columns].T * p                                               # (K', B)
     if rows is not None:
         a = a * rows[:, None]
-    norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+    norm = _largest(a)
     out = np.linalg.pinv(a / norm, rcond=1e-9) / norm * p[:, None]
     if rows is not None:
         out = out * rows[None, :]
     out.flags.writeable = False
     system.solved[key] = out
     return out
+
+
+def _largest(a: np.ndarray) -> float:
+    """The largest ``|a|``: a system is divided by it before it is solved, and its solution
+    scaled back (1e-300 for a zero system, which then stays zero)."""
+    return max(float(np.abs(a).max(initial=0.0)), 1e-300)
 
 
 def relation_errors(system: ClusterSystem, f: np.ndarray) -> np.ndarray:
@@ -327,7 +333,7 @@ class _Numerics:
                 a = r[:, live] * p[live]
             else:
                 a, b = self.weighted(columns, live, p, rows)                             # (K', B'), (K', S)
-            norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+            norm = _largest(a)
             direct = compressed is None
             with one_blas_thread():
                 y = None if direct and self.deficient(columns, rows, p, a) else _conditioned_lstsq(a / norm, b)
@@ -361,7 +367,7 @@ class _Numerics:
             return f
         live = np.flatnonzero(p)
         a, b = self.weighted(columns, live, p, rows)
-        norm = max(float(np.abs(a).max(initial=0.0)), 1e-300)
+        norm = _largest(a)
         try:
             with one_blas_thread():
                 y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN)

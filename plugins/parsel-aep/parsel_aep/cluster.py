@@ -334,18 +334,19 @@ class _Numerics:
             else:
                 a, b = self.weighted(columns, live, p, rows)                             # (K', B'), (K', S)
             norm = _largest(a)
+            scaled = a / norm
             direct = compressed is None
             with one_blas_thread():
-                y = None if direct and self.deficient(columns, rows, p, a) else _conditioned_lstsq(a / norm, b)
+                y = None if direct and self.deficient(columns, rows, p, a) else _conditioned_lstsq(scaled, b)
                 if y is None:
                     spectrum: list[tuple[float, float, int]] = []
                     try:
                         if direct:
-                            y = _orthogonal_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
+                            y = _orthogonal_lstsq(scaled, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
                             if y is not None:
                                 self.orthogonal.add(key)
                         if y is None:
-                            y = _guarded_lstsq(a / norm, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
+                            y = _guarded_lstsq(scaled, b, 1e-9, self.CUTOFF_MARGIN, spectrum)
                     finally:
                         if direct and spectrum:
                             smallest, largest, count = spectrum[0]

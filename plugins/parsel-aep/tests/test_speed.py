@@ -1250,3 +1250,19 @@ def test_the_amounts_focuss_starts_from_are_gelsds_not_gelsys(monkeypatch):
     monkeypatch.setattr(cluster, "_orthogonal_lstsq", lambda *a, **k: None)
     plain = cluster.plan(fresh_copy(system))
     assert found.kept == plain.kept and found.f.tobytes() == plain.f.tobytes()
+
+
+def test_the_fast_solvers_leave_their_system_as_it_was():
+    """A fast solve tries the Cholesky proof, then gelsy, then gelsd on one scaled system
+    (:meth:`cluster._Numerics.amounts`): none of them may write into it."""
+    rng = np.random.default_rng(11)
+    u, _ = np.linalg.qr(rng.normal(size=(40, 8)))
+    v, _ = np.linalg.qr(rng.normal(size=(8, 8)))
+    for smallest in (0.5, 1e-14):  # proved by Cholesky; a null space gelsy proves
+        a = np.asfortranarray(u @ np.diag([1, 1, 1, 1, 1, 1, 1, smallest]) @ v.T)
+        b = np.asfortranarray(rng.normal(size=(40, 3)))
+        before = a.copy(), b.copy()
+        cluster._conditioned_lstsq(a, b)
+        cluster._orthogonal_lstsq(a, b, 1e-9, 1e-4)
+        cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
+        assert np.array_equal(a, before[0]) and np.array_equal(b, before[1])

@@ -1266,3 +1266,25 @@ def test_the_fast_solvers_leave_their_system_as_it_was():
         cluster._orthogonal_lstsq(a, b, 1e-9, 1e-4)
         cluster._guarded_lstsq(a, b, 1e-9, 1e-4)
         assert np.array_equal(a, before[0]) and np.array_equal(b, before[1])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_kept_columns_and_row_weights_are_each_constraints_run(seed):
+    """``_columns`` and ``_row_weights`` are made by array operations from the system's
+    runs; they must be, byte for byte, each kept constraint's columns in order and its
+    ``1 / allowance`` repeated over them (the solves are remembered by these bytes)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(50):
+        count = int(rng.integers(1, 12))
+        sizes = rng.integers(1, 25, count)
+        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        slices = tuple(slice(int(a), int(a + b)) for a, b in zip(starts, sizes))
+        allowances = rng.random(count) * 1e-2 + 1e-4
+        system = cluster.ClusterSystem((), (), (), (), slices, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(1),
+                                       np.zeros(1), allowances)
+        kept = sorted(rng.choice(count, int(rng.integers(0, count + 1)), replace=False).tolist())
+        columns = np.array([c for i in kept for c in range(slices[i].start, slices[i].stop)], dtype=int)
+        weights = np.array([1.0 / allowances[i] for i in kept for _ in range(sizes[i])], dtype=float)
+        assert cluster._columns(system, kept).tobytes() == columns.tobytes()
+        assert cluster._row_weights(system, kept).tobytes() == weights.tobytes()
+        assert cluster._columns(system, tuple(kept)).tobytes() == columns.tobytes()

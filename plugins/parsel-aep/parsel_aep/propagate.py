@@ -685,22 +685,42 @@ class Propagation:
         return _Cluster(parts, members, plan, others_ops, constraints, tuple(dropped), shears, frame != "local")
 
     def cluster_ops(self, state: _State, found: _Cluster) -> list[EditOp] | None:
-        """The program with the cluster's edits replaced by its joint edit, amounts in closed form."""
+        """The program with the cluster's edits replaced by its joint edit, amounts in closed form.
+
+        The closed forms are derived unit by unit (a part or a group's virtual parent), the
+        unit whose numeric amounts distort a member most first: when the closed forms of a
+        unit distort one of its members beyond the threshold at the end of the range, or one
+        of them disagrees with its numbers, the joint edit is given up without deriving the
+        rest, as it would be after deriving them. Which units are derived first changes
+        nothing else: each unit's closed forms are derived on their own.
+        """
         clock = time.perf_counter()
         kept_constraints = [found.constraints[i] for i in found.kept]
         outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
         symbolic = self.symbolic_parts(found.others_ops, outside)
         residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
-        amounts = self.cluster_amounts(found, residual)
-        if amounts is None:
+        units = self.cluster_units(found)
+        if units is None:
             return None
-        new_ops: list[EditOp] = []
-        for op, expr, expected in amounts:
-            text = self.closed_amount(op, expr, expected)
-            if text is None:
+        # Each unit's members checked on their own, as the whole program checks them below,
+        # only where a member's corners are those of the ops moving it (part ops in one layer)
+        # and no other unit's ops move it.
+        moved = [{m for pairs, _ in unit for op, _ in pairs for m in op_targets(op, self.shape)} for unit in units]
+        alone = _part_by_part(self.program(found.others_ops)) and sum(map(len, moved)) == len(set().union(*moved))
+        order = sorted(range(len(units)), key=lambda i: -self.numeric_distortion(units[i])) if alone else \
+            range(len(units))
+        derived: list[list[EditOp]] = [[] for _ in units]
+        for i in order:
+            for _, terms in units[i]:
+                for op, expr, expected in terms(residual):
+                    text = self.closed_amount(op, expr, expected)
+                    if text is None:
+                        return None
+                    if text != "0":
+                        derived[i].append(dataclasses.replace(op, amount=text))
+            if alone and self.distorted(found.others_ops + derived[i], moved[i] & found.members):
                 return None
-            if text != "0":
-                new_ops.append(dataclasses.replace(op, amount=text))
+        new_ops = [op for ops in derived for op in ops]
         state.stats["time_s"]["derive"] += time.perf_counter() - clock
         ops = found.others_ops + new_ops
         # As in ranking (selection.py): no part may be distorted beyond the threshold at the
@@ -710,35 +730,78 @@ class Propagation:
             return None
         return ops
 
-    def cluster_amounts(self, found: _Cluster, residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]] | None:
-        """Each part's ops in the cluster's joint edit: ``(op, amount expression, amount at
-        the samples)``. A part with shears has its linear part factored exactly (factor.py);
-        the others' ops are the simplified basis (compound.simplify). ``None`` when a
-        sheared part has no exact factors (a pivot near zero in every axis order)."""
+    def cluster_units(self, found: _Cluster) -> list[list[tuple[list[tuple[EditOp, np.ndarray]], Callable]]] | None:
+        """Each part's ops in the cluster's joint edit, unit by unit: ``(pairs, terms)``, the
+        ops with their amounts at the samples, and ``terms(residual)`` giving ``(op, amount
+        expression, amount at the samples)`` for each of them. A part with shears has its
+        linear part factored exactly (factor.py); the others' ops are the simplified basis
+        (compound.simplify). ``None`` when a sheared part has no exact factors (a pivot near
+        zero in every axis order). What is numeric (which ops, their amounts at the samples)
+        is worked out here, the expressions only when ``terms`` is called."""
         system, (f, matrix) = found.system, found.solution
         total = len(system.weights)
-        out = []
+        units = []
         for compound, block in zip(system.compounds, system.blocks):
             fb = f[:, block]
             sheared = factor_module.has_shears(compound, fb)
             order = factor_module.choose_order(compound, fb) if sheared else None
             if sheared and order is None:
                 return None
+            parts = []
             if sheared:
                 live = factor_module.live(fb)
-                exprs = [linear_combination(self.backend, -matrix[block.start + i], residual) if on
-                         else None for i, on in enumerate(live)]
-                one = self.backend.number(1.0)
-                symbolic = factor_module.factor(compound, exprs, live, order, one)
                 numeric = factor_module.factor(compound, list(fb.T), live, order, np.ones(len(fb)))
-                out += [(op, expr, values) for (op, expr), (_, values) in zip(symbolic, numeric)]
+                parts.append((numeric, functools.partial(self._factored_terms, compound, block, live, order,
+                                                         numeric, matrix)))
                 fb = np.where(np.arange(fb.shape[1]) >= compound.size - 3, fb, 0.0)  # translations left
+            simple = []
             for term in simplify(compound, fb, self.shape.size):
                 weights = np.zeros(total)
                 weights[block] = term.weights
-                out.append((term.op, linear_combination(self.backend, -(weights @ matrix), residual),
-                            f @ weights))
-        return out
+                simple.append((term.op, weights, f @ weights))
+            parts.append(([(op, values) for op, _, values in simple],
+                          functools.partial(self._simple_terms, simple, matrix)))
+            units.append(parts)
+        return units
+
+    def _factored_terms(self, compound: Compound, block: slice, live: list[bool], order, numeric, matrix: np.ndarray,
+                        residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]]:
+        exprs = [linear_combination(self.backend, -matrix[block.start + i], residual) if on else None
+                 for i, on in enumerate(live)]
+        symbolic = factor_module.factor(compound, exprs, live, order, self.backend.number(1.0))
+        return [(op, expr, values) for (op, expr), (_, values) in zip(symbolic, numeric)]
+
+    def _simple_terms(self, simple, matrix: np.ndarray, residual: Sequence) -> list[tuple[EditOp, object, np.ndarray]]:
+        return [(op, linear_combination(self.backend, -(weights @ matrix), residual), values)
+                for op, weights, values in simple]
+
+    def numeric_distortion(self, unit) -> float:
+        """The largest distortion of a unit's members at the end of the range with its ops
+        at their numeric amounts (the order :meth:`cluster_ops` derives units in)."""
+        pairs = [pair for unit_pairs, _ in unit for pair in unit_pairs]
+        members = sorted({m for op, _ in pairs for m in op_targets(op, self.shape)} & set(self.rest))
+        worst = 0.0
+        for m in members:
+            corners = self.rest[m][None]
+            for op, values in pairs:
+                if m in op_targets(op, self.shape):
+                    corners = op.apply(corners, float(values[-1]), NUMPY_MATH)
+            worst = max(worst, float(arap_energies(self.rest[m], corners)[0]))
+        return worst
+
+    def distorted(self, ops: Sequence[EditOp], members: Iterable[str]) -> bool:
+        """Whether ``ops`` distort one of ``members`` beyond the threshold at the end of the
+        range, each member's corners made as the whole evaluation makes them (part ops in
+        one layer: its rest corners under the ops moving it, in order)."""
+        values = {self.parameter.name: self.xs[-1:]}
+        moving = self.moving_ops(ops, sorted(members))
+        for m, part_ops in moving.items():
+            corners = np.broadcast_to(self.rest[m], (1, 8, 3)).copy()
+            for op in part_ops:
+                corners = op.apply(corners, op_amount(op, values)[..., None, None], NUMPY_MATH)
+            if arap_energies(self.rest[m], corners[-1:])[0] > HIGH_DISTORTION:
+                return True
+        return False
 
     def closed_amount(self, op: EditOp, expr, expected: np.ndarray) -> str | None:
         """``expr`` printed, checked against its values at the samples (``None`` when they

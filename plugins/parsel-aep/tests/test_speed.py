@@ -1288,3 +1288,67 @@ def test_kept_columns_and_row_weights_are_each_constraints_run(seed):
         assert cluster._columns(system, kept).tobytes() == columns.tobytes()
         assert cluster._row_weights(system, kept).tobytes() == weights.tobytes()
         assert cluster._columns(system, tuple(kept)).tobytes() == columns.tobytes()
+
+
+def test_joint_edits_derived_unit_by_unit_are_those_derived_whole(monkeypatch):
+    """The joint pass derives a cluster's closed forms unit by unit, the most distorting
+    unit first, and gives up at the first member distorted at the end of the range or the
+    first closed form that disagrees with its numbers (Propagation.cluster_ops). Its answer
+    must be the one deriving every unit in order and checking the whole program gives, and
+    its check of one unit's members must be the whole evaluation's, to the bit."""
+    import dataclasses
+
+    from parsel_aep.derive import symbolic_residual
+    from parsel_aep.propagate import HIGH_DISTORTION, Propagation, _part_by_part
+    from parsel_aep.selection import arap_energies
+    from parsel_core.program import evaluate
+
+    def whole(self, found):
+        kept = [found.constraints[i] for i in found.kept]
+        outside = sorted({m for r in kept for m in r.members if m not in found.members})
+        symbolic = self.symbolic_parts(found.others_ops, outside)
+        residual = symbolic_residual(kept, {**symbolic, **{m: self.rest[m] for m in found.members}})
+        units = self.cluster_units(found)
+        if units is None:
+            return None, None
+        new_ops = []
+        for unit in units:
+            for _, terms in unit:
+                for op, expr, expected in terms(residual):
+                    text = self.closed_amount(op, expr, expected)
+                    if text is None:
+                        return None, None
+                    if text != "0":
+                        new_ops.append(dataclasses.replace(op, amount=text))
+        ops = found.others_ops + new_ops
+        edited = evaluate(self.program(ops), self.shape, {self.parameter.name: self.xs[-1:]}).parts
+        distorted = [m for m in found.members if arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION]
+        return (None if distorted else ops), (ops, distorted)
+
+    unit_by_unit, check = Propagation.cluster_ops, Propagation.distorted
+    seen = {"derived": 0, "given up": 0, "distorted early": 0, "checked": 0}
+
+    def counted(self, ops, members):
+        out = check(self, ops, members)
+        seen["distorted early"] += out
+        return out
+
+    def both(self, state, found):
+        got = unit_by_unit(self, state, found)
+        want, derived = whole(self, found)
+        assert (got is None) == (want is None)
+        if got is not None:
+            assert [repr(op) for op in got] == [repr(op) for op in want]
+        if derived is not None and _part_by_part(self.program(derived[0])):
+            for m in found.members:  # one member at a time, as a unit's members are checked
+                assert check(self, derived[0], [m]) == (m in derived[1])
+                seen["checked"] += 1
+        seen["derived"] += 1
+        seen["given up"] += got is None
+        return got
+
+    monkeypatch.setattr(Propagation, "cluster_ops", both)
+    monkeypatch.setattr(Propagation, "distorted", counted)
+    solve_fixtures()
+    assert seen["derived"] >= 3 and seen["checked"] > 0
+    assert seen["given up"] > 0 and seen["distorted early"] > 0  # (the early exit is exercised)

@@ -204,16 +204,6 @@ def build_system(parts: Sequence[str], hexahedra: Mapping[str, object], rest: Ma
                          np.array([r.allowance(tolerance) for r in constraints]))
 
 
-def _costed(system: ClusterSystem) -> np.ndarray:
-    """:attr:`ClusterSystem.costed`."""
-    return system.costed
-
-
-def _prior(system: ClusterSystem) -> np.ndarray:
-    """:attr:`ClusterSystem.prior`."""
-    return system.prior
-
-
 def _amounts(system: ClusterSystem, matrix: np.ndarray, columns: np.ndarray) -> np.ndarray:
     """``f = -M r0`` at every sample (S, B) for a solver ``M`` over the residual ``columns``."""
     return -(matrix @ system.r0[:, columns].T).T
@@ -231,11 +221,11 @@ def solver(system: ClusterSystem, columns: np.ndarray, rows: np.ndarray | None =
     """``P pinv(W S^T P) W`` (B, K'): the amounts from the residual columns that minimise
     ``sum (f_j / p_j)^2`` among those meeting the columns (least squares otherwise).
 
-    ``prior`` ``P`` (B,) defaults to :func:`_prior` (the least costed displacement); a zero
-    leaves that amount out. ``rows`` (K',) weighs the residual columns (the same solution
-    when the system can be met exactly).
+    ``prior`` ``P`` (B,) defaults to :attr:`ClusterSystem.prior` (the least costed
+    displacement); a zero leaves that amount out. ``rows`` (K',) weighs the residual
+    columns (the same solution when the system can be met exactly).
     """
-    p = _prior(system) if prior is None else prior
+    p = system.prior if prior is None else prior
     key = _solve_key(columns, rows, p)
     out = system.solved.get(key)
     if out is not None:
@@ -322,7 +312,7 @@ class _Numerics:
         :meth:`settled`), refused near the cutoff, amounts with a zero prior left out."""
         if not self.fast:
             return _amounts(self.system, solver(self.system, columns, rows, prior), columns)
-        p = _prior(self.system) if prior is None else prior
+        p = self.system.prior if prior is None else prior
         key = _solve_key(columns, rows, p)
         out = self.solved.get(key)
         if out is None:
@@ -362,7 +352,7 @@ class _Numerics:
         backward-stable solve gives alike; the amounts themselves, along directions near
         pinv's cutoff, agree only to ``~cond u`` (1e-7 at a condition of 1e9), and FOCUSS
         starts from them: it starts from gelsd's, as before."""
-        p = _prior(self.system)
+        p = self.system.prior
         key = _solve_key(columns, rows, p)
         if key not in self.orthogonal or self.solved.get(key) is not f:
             return f
@@ -445,7 +435,7 @@ class _Numerics:
     def determined(self, columns: np.ndarray, rows: np.ndarray | None) -> bool:
         """Whether the kept constraints determine every live amount: the fast solve with the
         default prior on these columns and rows was proved to have full column rank."""
-        key = _solve_key(columns, rows, _prior(self.system))
+        key = _solve_key(columns, rows, self.system.prior)
         return self.fast and key in self.conditioned
 
     def compressed(self, columns: np.ndarray, rows: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
@@ -814,7 +804,7 @@ def _focuss(system: ClusterSystem, kept: Sequence[int], f: np.ndarray, iteration
             numerics: _Numerics) -> np.ndarray | None:
     columns = _columns(system, kept)
     rows = _row_weights(system, kept)
-    base, c = _prior(system), _costed(system)
+    base, c = system.prior, system.costed
     g = np.abs(f * c).max(axis=0)
     if not numerics.positive(g.max(), columns):
         return None

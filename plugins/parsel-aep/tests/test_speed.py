@@ -575,7 +575,7 @@ def test_fast_amounts_agree_with_the_exact_solver():
     fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
     columns = np.arange(system.r0.shape[1])
     rows = rng.uniform(0.5, 2.0, len(columns))
-    prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)  # some amounts left out
+    prior = system.prior * (rng.random(len(system.weights)) < 0.7)  # some amounts left out
     for args in ((columns,), (columns, rows), (columns, rows, prior), (columns[:9], rows[:9], prior)):
         got, want = fast.amounts(*args), exact.amounts(*args)
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
@@ -592,7 +592,7 @@ def test_tall_systems_decide_on_their_qr_and_solve_as_the_exact_solver(seed):
     columns = np.arange(system.r0.shape[1])
     rows = rng.uniform(0.5, 2.0, len(columns))
     for _ in range(4):
-        prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)
+        prior = system.prior * (rng.random(len(system.weights)) < 0.7)
         got, want = fast.amounts(columns, rows, prior), exact.amounts(columns, rows, prior)
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
     assert [v is not None for v in fast.factored.values()] == [True]  # one QR for the last three
@@ -1152,7 +1152,7 @@ def test_systems_little_taller_than_wide_also_decide_on_their_qr(seed):
     fast, exact = cluster._Numerics(system, fast=True), cluster._Numerics(system, fast=False)
     rows = rng.uniform(0.5, 2.0, len(columns))
     for _ in range(4):
-        prior = cluster._prior(system) * (rng.random(len(system.weights)) < 0.7)
+        prior = system.prior * (rng.random(len(system.weights)) < 0.7)
         got, want = fast.amounts(columns, rows, prior), exact.amounts(columns, rows, prior)
         assert np.allclose(got, want, rtol=1e-8, atol=1e-10 * np.abs(want).max())
     assert [v is not None for v in fast.factored.values()] == [True]

@@ -695,10 +695,7 @@ class Propagation:
         nothing else: each unit's closed forms are derived on their own.
         """
         clock = time.perf_counter()
-        kept_constraints = [found.constraints[i] for i in found.kept]
-        outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
-        symbolic = self.symbolic_parts(found.others_ops, outside)
-        residual = symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
+        residual = self.cluster_residual(found)
         units = self.cluster_units(found)
         if units is None:
             return None
@@ -729,6 +726,14 @@ class Propagation:
         if any(arap_energies(self.rest[m], edited[m][-1:])[0] > HIGH_DISTORTION for m in found.members):
             return None
         return ops
+
+    def cluster_residual(self, found: _Cluster) -> list:
+        """The kept constraints' residual terms with the cluster's members at rest and the
+        parts outside it under their decided ops (the closed forms are combinations of them)."""
+        kept_constraints = [found.constraints[i] for i in found.kept]
+        outside = sorted({m for r in kept_constraints for m in r.members if m not in found.members})
+        symbolic = self.symbolic_parts(found.others_ops, outside)
+        return symbolic_residual(kept_constraints, {**symbolic, **{m: self.rest[m] for m in found.members}})
 
     def cluster_units(self, found: _Cluster) -> list[list[tuple[list[tuple[EditOp, np.ndarray]], Callable]]] | None:
         """Each part's ops in the cluster's joint edit, unit by unit: ``(pairs, terms)``, the
@@ -794,11 +799,15 @@ class Propagation:
         range, each member's corners made as the whole evaluation makes them (part ops in
         one layer: its rest corners under the ops moving it, in order)."""
         values = {self.parameter.name: self.xs[-1:]}
-        moving = self.moving_ops(ops, sorted(members))
-        for m, part_ops in moving.items():
-            corners = np.broadcast_to(self.rest[m], (1, 8, 3)).copy()
-            for op in part_ops:
-                corners = op.apply(corners, op_amount(op, values)[..., None, None], NUMPY_MATH)
+
+        def start(rest: np.ndarray) -> np.ndarray:
+            return np.broadcast_to(rest, (1, 8, 3)).copy()
+
+        def amount(op: EditOp) -> np.ndarray:
+            return op_amount(op, values)[..., None, None]
+
+        for m, part_ops in self.moving_ops(ops, sorted(members)).items():
+            corners = _moved_part({}, m, self.rest[m], part_ops, start, amount, NUMPY_MATH)
             if arap_energies(self.rest[m], corners[-1:])[0] > HIGH_DISTORTION:
                 return True
         return False

@@ -1298,16 +1298,12 @@ def test_joint_edits_derived_unit_by_unit_are_those_derived_whole(monkeypatch):
     its check of one unit's members must be the whole evaluation's, to the bit."""
     import dataclasses
 
-    from parsel_aep.derive import symbolic_residual
     from parsel_aep.propagate import HIGH_DISTORTION, Propagation, _part_by_part
     from parsel_aep.selection import arap_energies
     from parsel_core.program import evaluate
 
     def whole(self, found):
-        kept = [found.constraints[i] for i in found.kept]
-        outside = sorted({m for r in kept for m in r.members if m not in found.members})
-        symbolic = self.symbolic_parts(found.others_ops, outside)
-        residual = symbolic_residual(kept, {**symbolic, **{m: self.rest[m] for m in found.members}})
+        residual = self.cluster_residual(found)
         units = self.cluster_units(found)
         if units is None:
             return None, None
